@@ -1,0 +1,67 @@
+// Scene description: what the caller hands the engine, in flat arrays.
+//
+// Units follow Blender/Cycles in "radiance units": emission and results are outgoing radiance, and
+// a diffuse surface's radiance is B = E + rho * H with H = irradiance / pi.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <string>
+#include <vector>
+
+namespace radiosity {
+
+using glm::dmat4;
+using glm::dvec3;
+
+struct Material {
+  dvec3 reflectance{0.8};  // diffuse albedo per channel, each in [0, 1)
+  dvec3 emission{0.0};     // emitted radiance, two-sided as Cycles does for meshes
+};
+
+enum class Refinement {
+  None,          // faces as given: quads stay, triangles become degenerate quads, n-gons are split
+  Bilinear,      // uniform bilinear splitting until patches are about `patch_size` across
+  CatmullClark,  // `level` Catmull-Clark steps, vertices and normals on the limit surface
+};
+
+struct MeshDesc {
+  std::string name;
+  std::vector<dvec3> positions;    // object space
+  std::vector<int> face_sizes;     // vertices per face (>= 3)
+  std::vector<int> face_vertices;  // concatenated, counter-clockwise seen from the front
+  std::vector<int> face_materials; // index into SceneDesc::materials, one per face
+  dmat4 transform{1.0};            // object to world
+  Refinement refine = Refinement::None;
+  int level = 0;           // Catmull-Clark steps
+  double patch_size = 0.0; // Bilinear target size in world units; 0 = Settings decides
+  bool dynamic = false;    // will move or deform later: kept as an instance in the ray-tracing scene
+};
+
+// Point and spot lamps are Cycles' sphere lamps: a disc of `radius` facing the receiver whose total
+// radiant intensity is `intensity` (so irradiance = I cos / (d^2 + radius^2)).
+struct Lamp {
+  enum class Type { Point, Spot, Sun, Rect, Disc } type = Type::Point;
+  dvec3 position{0.0};
+  dvec3 direction{0.0, 0.0, -1.0}; // where the light travels (spot axis, sun rays, area normal)
+  dvec3 color{1.0};  // Point/Spot: radiant intensity (W/sr); Sun: irradiance; Rect/Disc: radiance
+  double radius = 0.0;             // Point/Spot/Disc radius
+  double angle = 0.0;              // Sun: angular diameter (radians)
+  double spot_size = 0.0;          // Spot: full cone angle (radians)
+  double spot_blend = 0.0;         // Spot: Cycles' smooth edge fraction
+  dvec3 u_axis{1.0, 0.0, 0.0};     // Rect: half extent vectors; the lamp emits along -(u x v)
+  dvec3 v_axis{0.0, 1.0, 0.0};
+};
+
+struct SceneDesc {
+  std::vector<Material> materials;
+  std::vector<MeshDesc> meshes;
+  std::vector<Lamp> lamps;
+  dvec3 world{0.0};  // uniform environment radiance
+
+  // Throws std::invalid_argument naming the object and the fault for input the engine cannot take
+  // (NaN/inf, bad indices, reflectance outside [0, 1), negative emission).
+  void validate() const;
+};
+
+}  // namespace radiosity

@@ -1,0 +1,28 @@
+// Quality knobs and the named presets behind them.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace radiosity {
+
+struct Settings {
+  // Micro-elements (one visibility ray each) per shot: emitters and lamps first, reflected light after.
+  int samples_direct = 64;
+  int samples_indirect = 16;
+  // Bilinear objects without their own patch size are split to this fraction of the scene diagonal.
+  double patch_size_relative = 1.0 / 32.0;
+  // Reflected light shoots from clusters of patches about this fraction of the scene diagonal across
+  // (coarse shooters, fine receivers): their number does not grow with the receiver count.
+  double shooter_size_relative = 1.0 / 8.0;
+  // A cluster or micro-element closer than near_factor times its radius is split / integrated exactly.
+  double near_factor = 3.0;
+  double threshold = 1e-3;   // stop when unshot power / injected power falls below this
+  double relaxation = 1.3;   // over-relaxation of reflected shots (1 = plain progressive refinement)
+  long max_shots = 2000000;  // a guard: rho near 1 must end, the residual says how far it got
+
+  static Settings preset(const std::string& name);  // draft, default, high, reference
+  static std::vector<std::string> preset_names();
+};
+
+}  // namespace radiosity

@@ -1,0 +1,66 @@
+// The radiosity solver: progressive refinement (shooting) on bilinear patches with the unknowns at
+// patch vertices.
+#pragma once
+
+#include "radiosity/scene.h"
+#include "radiosity/settings.h"
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace radiosity {
+
+struct SolveStats {
+  double seconds = 0.0;      // wall time of the last solve() call
+  double residual = 1.0;     // unshot power / injected power: tracks the error, the convergence measure
+  long shots = 0;            // shots so far (lamps count as one)
+  long long rays = 0;        // visibility rays so far
+  int patches = 0, points = 0, shooters = 0;
+  bool converged = false;
+  bool cancelled = false;
+  std::vector<std::string> warnings;  // e.g. no light, degenerate faces dropped
+};
+
+// Injected = unshot + absorbed + escaped, in power units of radiance x area (both sides and RGB
+// summed). `injected` is the direct light (lamps, world, emitting surfaces) that landed on surfaces.
+struct PowerBalance {
+  double injected = 0.0, unshot = 0.0, absorbed = 0.0;
+};
+
+// Called between shots with (progress in [0, 1], residual); returning false cancels the solve.
+using ProgressCallback = std::function<bool(double, double)>;
+
+class Solver {
+ public:
+  // Validates the scene (std::invalid_argument on bad input), refines it and builds the BVH.
+  Solver(SceneDesc scene, const Settings& settings);
+  ~Solver();
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+
+  // Shoots until the residual is below the threshold; may be called again to continue after a
+  // cancel. A cancelled solve stops at the last complete shot: the state stays consistent.
+  const SolveStats& solve(const ProgressCallback& progress = {});
+  void cancel();  // thread-safe: the running solve stops soon after
+  const SolveStats& stats() const;
+  PowerBalance power_balance() const;
+
+  // Outgoing radiance on the front side at each input face corner / vertex (mean of its corners).
+  std::vector<float> corner_radiance(int object) const;  // 3 floats per face corner
+  std::vector<float> vertex_radiance(int object) const;  // 3 floats per input vertex
+
+  // The refined patch mesh of one object, for inspection and pictures (world positions).
+  struct Refined {
+    std::vector<double> positions;  // 3 per patch corner, 4 corners per patch
+    std::vector<float> radiance;    // 3 per patch corner
+  };
+  Refined refined(int object) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace radiosity

@@ -1,0 +1,237 @@
+// Python module: numpy arrays in and out, long calls without the GIL.
+#include "radiosity/form_factor.h"
+#include "radiosity/solver.h"
+
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstring>
+
+namespace py = pybind11;
+using namespace radiosity;
+
+namespace {
+
+template <class T>
+using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
+
+dvec3 vec3(const std::array<double, 3>& a) { return dvec3(a[0], a[1], a[2]); }
+
+template <class T>
+std::vector<T> flat(const Array<T>& a) {
+  return std::vector<T>(a.data(), a.data() + a.size());
+}
+
+std::vector<dvec3> points(const Array<double>& a, const char* what) {
+  if (a.ndim() != 2 || a.shape(1) != 3) throw std::invalid_argument(std::string(what) + " must be an (N, 3) array");
+  std::vector<dvec3> out(a.shape(0));
+  std::memcpy(out.data(), a.data(), sizeof(double) * a.size());
+  return out;
+}
+
+Refinement refinement(const std::string& name) {
+  if (name == "none") return Refinement::None;
+  if (name == "bilinear") return Refinement::Bilinear;
+  if (name == "catmull_clark") return Refinement::CatmullClark;
+  throw std::invalid_argument("refine must be 'none', 'bilinear' or 'catmull_clark', not '" + name + "'");
+}
+
+py::array_t<float> rows3(std::vector<float> v) {
+  auto* heap = new std::vector<float>(std::move(v));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<float>*>(p); });
+  return py::array_t<float>({py::ssize_t(heap->size() / 3), py::ssize_t(3)}, heap->data(), owner);
+}
+
+py::dict stats_dict(const SolveStats& s) {
+  py::dict d;
+  d["seconds"] = s.seconds;
+  d["residual"] = s.residual;
+  d["shots"] = s.shots;
+  d["rays"] = s.rays;
+  d["patches"] = s.patches;
+  d["points"] = s.points;
+  d["shooters"] = s.shooters;
+  d["converged"] = s.converged;
+  d["cancelled"] = s.cancelled;
+  d["warnings"] = s.warnings;
+  return d;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(radiosity_engine, m) {
+  m.doc() = "Dynamic Radiosity engine: progressive-refinement radiosity on bilinear patches";
+
+  py::class_<Settings>(m, "Settings")
+      .def(py::init<>())
+      .def_static("preset", &Settings::preset, py::arg("name"))
+      .def_static("preset_names", &Settings::preset_names)
+      .def_readwrite("samples_direct", &Settings::samples_direct)
+      .def_readwrite("samples_indirect", &Settings::samples_indirect)
+      .def_readwrite("patch_size_relative", &Settings::patch_size_relative)
+      .def_readwrite("shooter_size_relative", &Settings::shooter_size_relative)
+      .def_readwrite("near_factor", &Settings::near_factor)
+      .def_readwrite("threshold", &Settings::threshold)
+      .def_readwrite("relaxation", &Settings::relaxation)
+      .def_readwrite("max_shots", &Settings::max_shots);
+
+  py::class_<SceneDesc>(m, "Scene")
+      .def(py::init<>())
+      .def("add_material",
+           [](SceneDesc& s, std::array<double, 3> reflectance, std::array<double, 3> emission) {
+             s.materials.push_back({vec3(reflectance), vec3(emission)});
+             return int(s.materials.size()) - 1;
+           },
+           py::arg("reflectance"), py::arg("emission") = std::array<double, 3>{0, 0, 0})
+      .def("add_mesh",
+           [](SceneDesc& s, const Array<double>& positions, const Array<int>& face_sizes,
+              const Array<int>& face_vertices, const Array<int>& face_materials,
+              std::optional<Array<double>> transform, const std::string& refine, int level,
+              double patch_size, bool dynamic, const std::string& name) {
+             MeshDesc mesh;
+             mesh.name = name;
+             mesh.positions = points(positions, "positions");
+             mesh.face_sizes = flat(face_sizes);
+             mesh.face_vertices = flat(face_vertices);
+             mesh.face_materials = flat(face_materials);
+             if (transform) {
+               if (transform->size() != 16) throw std::invalid_argument("transform must be 4 x 4");
+               // numpy/Blender matrices are row-major; glm is column-major.
+               for (int r = 0; r < 4; ++r)
+                 for (int c = 0; c < 4; ++c) mesh.transform[c][r] = transform->data()[4 * r + c];
+             }
+             mesh.refine = refinement(refine);
+             mesh.level = level;
+             mesh.patch_size = patch_size;
+             mesh.dynamic = dynamic;
+             s.meshes.push_back(std::move(mesh));
+             return int(s.meshes.size()) - 1;
+           },
+           py::arg("positions"), py::arg("face_sizes"), py::arg("face_vertices"), py::arg("face_materials"),
+           py::arg("transform") = py::none(), py::arg("refine") = "none", py::arg("level") = 0,
+           py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "")
+      .def("add_point_light",
+           [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
+             Lamp l;
+             l.type = Lamp::Type::Point;
+             l.position = vec3(position);
+             l.color = vec3(intensity);
+             l.radius = radius;
+             s.lamps.push_back(l);
+           },
+           py::arg("position"), py::arg("intensity"), py::arg("radius") = 0.0,
+           "Sphere lamp: intensity in W/sr (radiance units x area), Cycles' disc of `radius` for shadows")
+      .def("add_spot_light",
+           [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> direction,
+              std::array<double, 3> intensity, double radius, double spot_size, double spot_blend) {
+             Lamp l;
+             l.type = Lamp::Type::Spot;
+             l.position = vec3(position);
+             l.direction = vec3(direction);
+             l.color = vec3(intensity);
+             l.radius = radius;
+             l.spot_size = spot_size;
+             l.spot_blend = spot_blend;
+             s.lamps.push_back(l);
+           },
+           py::arg("position"), py::arg("direction"), py::arg("intensity"), py::arg("radius") = 0.0,
+           py::arg("spot_size") = 0.785398, py::arg("spot_blend") = 0.15)
+      .def("add_sun_light",
+           [](SceneDesc& s, std::array<double, 3> direction, std::array<double, 3> irradiance, double angle) {
+             Lamp l;
+             l.type = Lamp::Type::Sun;
+             l.direction = vec3(direction);
+             l.color = vec3(irradiance);
+             l.angle = angle;
+             s.lamps.push_back(l);
+           },
+           py::arg("direction"), py::arg("irradiance"), py::arg("angle") = 0.0)
+      .def("add_area_light",
+           [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> u_axis,
+              std::array<double, 3> v_axis, std::array<double, 3> radiance, const std::string& shape) {
+             Lamp l;
+             l.position = vec3(position);
+             l.u_axis = vec3(u_axis);
+             l.v_axis = vec3(v_axis);
+             l.color = vec3(radiance);
+             if (shape == "rect") {
+               l.type = Lamp::Type::Rect;
+             } else if (shape == "disc") {
+               l.type = Lamp::Type::Disc;
+               l.radius = glm::length(l.u_axis);
+               l.direction = -glm::cross(l.u_axis, l.v_axis);
+             } else {
+               throw std::invalid_argument("shape must be 'rect' or 'disc'");
+             }
+             s.lamps.push_back(l);
+           },
+           py::arg("position"), py::arg("u_axis"), py::arg("v_axis"), py::arg("radiance"),
+           py::arg("shape") = "rect",
+           "One-sided emitter along -(u x v); u, v are half extents (disc: radius |u|)")
+      .def("set_world", [](SceneDesc& s, std::array<double, 3> radiance) { s.world = vec3(radiance); })
+      .def_property_readonly("mesh_count", [](const SceneDesc& s) { return s.meshes.size(); });
+
+  py::class_<Solver>(m, "Solver")
+      .def(py::init([](const SceneDesc& scene, const Settings& settings) {
+             py::gil_scoped_release release;
+             return std::make_unique<Solver>(scene, settings);
+           }),
+           py::arg("scene"), py::arg("settings") = Settings())
+      .def("solve",
+           [](Solver& solver, std::optional<py::function> progress) {
+             std::exception_ptr error;
+             ProgressCallback callback;
+             if (progress) {
+               callback = [&](double fraction, double residual) {
+                 py::gil_scoped_acquire acquire;
+                 try {
+                   py::object r = (*progress)(fraction, residual);
+                   return r.is_none() || r.cast<bool>();
+                 } catch (...) {
+                   error = std::current_exception();
+                   return false;
+                 }
+               };
+             }
+             {
+               py::gil_scoped_release release;
+               solver.solve(callback);
+             }
+             if (error) std::rethrow_exception(error);
+             return stats_dict(solver.stats());
+           },
+           py::arg("progress") = py::none(),
+           "Solve to the threshold. progress(fraction, residual) may return False to cancel.")
+      .def("cancel", &Solver::cancel)
+      .def_property_readonly("stats", [](const Solver& s) { return stats_dict(s.stats()); })
+      .def("power_balance",
+           [](const Solver& s) {
+             PowerBalance b = s.power_balance();
+             py::dict d;
+             d["injected"] = b.injected;
+             d["unshot"] = b.unshot;
+             d["absorbed"] = b.absorbed;
+             return d;
+           })
+      .def("corner_radiance", [](const Solver& s, int o) { return rows3(s.corner_radiance(o)); },
+           py::arg("object"), "(K, 3) float32 front-side outgoing radiance per input face corner")
+      .def("vertex_radiance", [](const Solver& s, int o) { return rows3(s.vertex_radiance(o)); },
+           py::arg("object"), "(N, 3) float32 mean of each input vertex's corners")
+      .def("refined",
+           [](const Solver& s, int o) {
+             Solver::Refined r = s.refined(o);
+             Array<double> pos({py::ssize_t(r.positions.size() / 3), py::ssize_t(3)});
+             std::memcpy(pos.mutable_data(), r.positions.data(), sizeof(double) * r.positions.size());
+             return py::make_tuple(pos, rows3(std::move(r.radiance)));
+           },
+           py::arg("object"), "(positions, radiance) per patch corner, 4 rows a patch, world space");
+
+  m.def("polygon_form_factor",
+        [](std::array<double, 3> x, std::array<double, 3> n, const Array<double>& polygon) {
+          std::vector<dvec3> p = points(polygon, "polygon");
+          return polygon_form_factor(vec3(x), vec3(n), p.data(), int(p.size()));
+        },
+        py::arg("x"), py::arg("normal"), py::arg("polygon"));
+}

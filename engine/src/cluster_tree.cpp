@@ -1,0 +1,111 @@
+#include "cluster_tree.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace radiosity {
+
+namespace {
+
+constexpr double kFlat = 0.95;  // |vector area| / area: about 18 degrees of spread
+
+struct Builder {
+  const PatchMesh& mesh;
+  ClusterTree& tree;
+
+  int build(int begin, int end) {
+    int id = int(tree.nodes.size());
+    tree.nodes.emplace_back();
+    summarise(id, begin, end);
+    if (end - begin > 1) {
+      int mid = split(begin, end);
+      int left = build(begin, mid);
+      int right = build(mid, end);
+      tree.nodes[id].left = left;
+      tree.nodes[id].right = right;
+    }
+    return id;
+  }
+
+  void summarise(int id, int begin, int end) {
+    ClusterNode& node = tree.nodes[id];
+    node.begin = begin;
+    node.end = end;
+    dvec3 weighted(0.0), plain(0.0);
+    for (int i = begin; i < end; ++i) {
+      const Patch& p = mesh.patches[tree.order[i]];
+      node.area += p.area;
+      node.vector_area += p.area * p.normal;
+      weighted += p.area * p.centre;
+      plain += p.centre;
+    }
+    node.centroid = node.area > 0 ? weighted / node.area : plain / double(end - begin);
+    double nearest = INFINITY;
+    for (int i = begin; i < end; ++i) {
+      const Patch& p = mesh.patches[tree.order[i]];
+      double d = glm::length(p.centre - node.centroid);
+      if (d < nearest) nearest = d, node.anchor = p.centre;
+      for (int v : p.vertex) node.radius = std::max(node.radius, glm::length(mesh.vertices[v] - node.centroid));
+    }
+    node.flat = glm::length(node.vector_area) >= kFlat * node.area;
+  }
+
+  // Median split along the widest of position and (scaled) normal: clusters come out compact and
+  // with coherent normals, so the corner of a box separates its faces early.
+  int split(int begin, int end) {
+    dvec3 lo(INFINITY), hi(-INFINITY), nlo(INFINITY), nhi(-INFINITY);
+    for (int i = begin; i < end; ++i) {
+      const Patch& p = mesh.patches[tree.order[i]];
+      lo = glm::min(lo, p.centre), hi = glm::max(hi, p.centre);
+      nlo = glm::min(nlo, p.normal), nhi = glm::max(nhi, p.normal);
+    }
+    dvec3 extent = hi - lo;
+    double size = std::max(extent.x, std::max(extent.y, extent.z));
+    dvec3 nextent = (nhi - nlo) * size;
+    int axis = 0;
+    double best = -1;
+    for (int k = 0; k < 6; ++k) {
+      double e = k < 3 ? extent[k] : nextent[k - 3];
+      if (e > best) best = e, axis = k;
+    }
+    int mid = (begin + end) / 2;
+    auto key = [&](int patch) {
+      const Patch& p = mesh.patches[patch];
+      return axis < 3 ? p.centre[axis] : p.normal[axis - 3];
+    };
+    std::nth_element(tree.order.begin() + begin, tree.order.begin() + mid, tree.order.begin() + end,
+                     [&](int a, int b) { return key(a) < key(b); });
+    return mid;
+  }
+};
+
+}  // namespace
+
+ClusterTree ClusterTree::build(const PatchMesh& mesh) {
+  ClusterTree tree;
+  tree.order.resize(mesh.patches.size());
+  for (size_t i = 0; i < tree.order.size(); ++i) tree.order[i] = int(i);
+  tree.nodes.reserve(2 * mesh.patches.size());
+  Builder builder{mesh, tree};
+  for (const ObjectPatches& obj : mesh.objects)
+    if (obj.patch_end > obj.patch_begin) tree.roots.push_back(builder.build(obj.patch_begin, obj.patch_end));
+  return tree;
+}
+
+std::vector<int> ClusterTree::cut(double radius) const {
+  std::vector<int> out, stack(roots.rbegin(), roots.rend());
+  while (!stack.empty()) {
+    int id = stack.back();
+    stack.pop_back();
+    const ClusterNode& n = nodes[id];
+    if (n.left < 0 || n.radius <= radius) {
+      out.push_back(id);
+    } else {
+      stack.push_back(n.right);
+      stack.push_back(n.left);
+    }
+  }
+  return out;
+}
+
+}  // namespace radiosity

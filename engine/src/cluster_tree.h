@@ -1,0 +1,33 @@
+// A hierarchy of patch clusters per object. Reflected light shoots from clusters about a fixed world
+// size (coarse shooters, fine receivers), sampled at a few sub-clusters far away and refined down to
+// exact patch cells near the receiver, so a shot costs about the same whatever the mesh density.
+#pragma once
+
+#include "patch_mesh.h"
+
+#include <vector>
+
+namespace radiosity {
+
+struct ClusterNode {
+  int begin = 0, end = 0;    // range in ClusterTree::order
+  int left = -1, right = -1; // children; -1 for a single-patch leaf
+  dvec3 centroid{0.0};       // area-weighted
+  dvec3 anchor{0.0};         // a point on the surface near the centroid: where rays aim
+  dvec3 vector_area{0.0};    // sum of normal * area: the cluster's projected area in any direction
+  double area = 0.0;
+  double radius = 0.0;       // bounding sphere around the centroid
+  bool flat = false;         // normals agree well enough for the cluster to act as one sample
+};
+
+struct ClusterTree {
+  std::vector<int> order;  // patch indices; a node's patches are contiguous
+  std::vector<ClusterNode> nodes;
+  std::vector<int> roots;  // one per object that has patches
+
+  static ClusterTree build(const PatchMesh& mesh);
+  // The coarsest nodes no larger than `radius`: a partition of all patches into shooters.
+  std::vector<int> cut(double radius) const;
+};
+
+}  // namespace radiosity

@@ -1,0 +1,160 @@
+#include "lights.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace radiosity {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A fixed per-receiver rotation of the sample pattern: shadows get fine noise instead of banding,
+// and a solve stays deterministic.
+double receiver_rotation(int receiver) {
+  uint32_t h = uint32_t(receiver) * 2654435761u;
+  h ^= h >> 16;
+  h *= 0x45d9f3bu;
+  h ^= h >> 16;
+  return (h & 0xFFFFFF) / double(0x1000000) * 2.0 * kPi;
+}
+
+// Stratified points on the unit disc (Shirley's concentric map of a k x k grid).
+template <class F>
+void disc_samples(int samples, double rotation, F&& use) {
+  int k = std::max(1, int(std::ceil(std::sqrt(double(samples)))));
+  double cr = std::cos(rotation), sr = std::sin(rotation);
+  for (int j = 0; j < k; ++j)
+    for (int i = 0; i < k; ++i) {
+      double a = 2.0 * (i + 0.5) / k - 1.0, b = 2.0 * (j + 0.5) / k - 1.0;
+      double r, phi;
+      if (std::fabs(a) > std::fabs(b)) r = a, phi = kPi / 4 * (b / a);
+      else r = b, phi = kPi / 2 - kPi / 4 * (a / b);
+      double x = r * std::cos(phi), y = r * std::sin(phi);
+      use(cr * x - sr * y, sr * x + cr * y, 1.0 / (k * k));
+    }
+}
+
+void orthonormal_basis(const dvec3& n, dvec3& t, dvec3& b) {
+  t = std::fabs(n.x) < 0.9 ? glm::normalize(glm::cross(n, dvec3(1, 0, 0)))
+                           : glm::normalize(glm::cross(n, dvec3(0, 1, 0)));
+  b = glm::cross(n, t);
+}
+
+dvec3 split(bool front, const dvec3& v, bool want_front) { return front == want_front ? v : dvec3(0.0); }
+
+}  // namespace
+
+double spot_attenuation(const Lamp& lamp, const dvec3& to_receiver_unit) {
+  double cos_half = std::cos(0.5 * lamp.spot_size);
+  double smooth = (1.0 - cos_half) * lamp.spot_blend;
+  double a = glm::dot(glm::normalize(lamp.direction), to_receiver_unit);
+  if (a <= cos_half) return 0.0;
+  double t = a - cos_half;
+  if (t < smooth && smooth != 0.0) {
+    double s = t / smooth;
+    a *= s * s * (3.0 - 2.0 * s);
+  }
+  return a;
+}
+
+void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoint& point,
+                 OcclusionBatch& batch) {
+  const dvec3& x = point.position;
+  const dvec3& n = point.normal;
+  if (lamp.type == Lamp::Type::Sun) {
+    dvec3 to_sun = -glm::normalize(lamp.direction);
+    double cos_r = glm::dot(n, to_sun);
+    if (cos_r == 0) return;
+    dvec3 h = lamp.color * (std::fabs(cos_r) / kPi);
+    bool front = cos_r > 0;
+    if (lamp.angle <= 0) {
+      batch.to_infinity(receiver, x, n, to_sun, split(front, h, true), split(front, h, false));
+      return;
+    }
+    dvec3 t, b;
+    orthonormal_basis(to_sun, t, b);
+    double spread = std::tan(0.5 * lamp.angle);
+    disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
+      dvec3 dir = to_sun + spread * (u * t + v * b);
+      batch.to_infinity(receiver, x, n, dir, split(front, w * h, true), split(front, w * h, false));
+    });
+    return;
+  }
+  // Point and spot: a disc of lamp.radius facing the receiver.
+  dvec3 d = lamp.position - x;
+  double dist2 = glm::dot(d, d);
+  double dist = std::sqrt(dist2);
+  if (dist == 0) return;
+  dvec3 to_lamp = d / dist;
+  double cos_r = glm::dot(n, to_lamp);
+  if (cos_r == 0) return;
+  double falloff = lamp.type == Lamp::Type::Spot ? spot_attenuation(lamp, -to_lamp) : 1.0;
+  if (falloff == 0) return;
+  dvec3 h = lamp.color * (falloff * std::fabs(cos_r) / (kPi * (dist2 + lamp.radius * lamp.radius)));
+  bool front = cos_r > 0;
+  const dvec3 no_normal(0.0);
+  if (lamp.radius <= 0) {
+    batch.to_point(receiver, x, n, lamp.position, no_normal, split(front, h, true), split(front, h, false));
+    return;
+  }
+  dvec3 t, b;
+  orthonormal_basis(to_lamp, t, b);
+  disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
+    dvec3 y = lamp.position + lamp.radius * (u * t + v * b);
+    batch.to_point(receiver, x, n, y, no_normal, split(front, w * h, true), split(front, w * h, false));
+  });
+}
+
+void gather_world(const dvec3& radiance, int samples, int receiver, const ReceiverPoint& point,
+                  OcclusionBatch& batch) {
+  dvec3 t, b;
+  orthonormal_basis(point.normal, t, b);
+  // Cosine-weighted directions on each side: every unoccluded ray carries radiance / samples.
+  for (int side = 0; side < 2; ++side) {
+    dvec3 n = side == 0 ? point.normal : -point.normal;
+    disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
+      dvec3 dir = u * t + v * b + std::sqrt(std::max(0.0, 1.0 - u * u - v * v)) * n;
+      dvec3 h = w * radiance;
+      batch.to_infinity(receiver, point.position, point.normal, dir, side == 0 ? h : dvec3(0.0),
+                        side == 0 ? dvec3(0.0) : h);
+    });
+  }
+}
+
+Shot area_lamp_shot(const Lamp& lamp, int samples, double near_factor) {
+  // Quads counter-clockwise seen from the emitting side, -(u x v) for a rectangle, `direction` for a disc.
+  std::vector<std::array<dvec3, 4>> quads;
+  if (lamp.type == Lamp::Type::Rect) {
+    const dvec3 &c = lamp.position, &u = lamp.u_axis, &v = lamp.v_axis;
+    quads.push_back({c - u - v, c - u + v, c + u + v, c + u - v});
+  } else {
+    // A regular 16-gon of the disc's area, as 8 quads fanned from the centre.
+    constexpr int kSides = 16;
+    dvec3 w = glm::normalize(lamp.direction), t, b;
+    orthonormal_basis(w, t, b);
+    double r = lamp.radius * std::sqrt(2 * kPi / (kSides * std::sin(2 * kPi / kSides)));
+    auto rim = [&](int i) {
+      double a = 2 * kPi * i / kSides;
+      return lamp.position + r * (std::cos(a) * t + std::sin(a) * b);
+    };
+    // t x b = w, so the rim runs counter-clockwise seen from the emitting side.
+    for (int i = 0; i < kSides; i += 2) quads.push_back({lamp.position, rim(i), rim(i + 1), rim(i + 2)});
+  }
+  int k = std::max(1, int(std::ceil(std::sqrt(double(samples) / quads.size()))));
+  Shot shot;
+  shot.near_factor = near_factor;
+  ShotElement e;
+  std::vector<Cell> cells(k * k);
+  for (const auto& q : quads) {
+    bilinear_cells(q.data(), k, cells.data());
+    for (const Cell& c : cells) shot.cells.push_back({c, {lamp.color, dvec3(0.0)}});
+  }
+  e.cell_end = int(shot.cells.size());
+  shot.elements.push_back(e);
+  shot.frontier.push_back(0);
+  return shot;
+}
+
+}  // namespace radiosity

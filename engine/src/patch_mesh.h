@@ -1,0 +1,52 @@
+// The patch mesh: every object refined into bilinear patches, in one world-space frame, with the
+// receiving points (the unknowns) at patch corners.
+#pragma once
+
+#include "radiosity/scene.h"
+#include "radiosity/settings.h"
+
+#include <array>
+#include <vector>
+
+namespace radiosity {
+
+struct Patch {
+  std::array<int, 4> vertex;  // corners in PatchMesh::vertices, counter-clockwise from the front
+  std::array<int, 4> point;   // receiving point at each corner
+  int material = 0;
+  int object = 0;
+  double area = 0.0;          // zero for degenerate patches: they neither shoot nor receive
+  dvec3 normal{0.0};          // unit, front side
+  dvec3 centre{0.0};
+};
+
+// A receiving point. Corners meeting at a vertex share a point where their normals agree; a crease
+// (floor meets wall) gives one point per side of it. Each point holds irradiance on both faces.
+struct ReceiverPoint {
+  dvec3 position;  // nudged slightly into its patches: a point exactly on a junction line sees the
+                   // adjoining wall edge-on and would get nothing from it
+  dvec3 normal;    // unit; zero when all its patches are degenerate
+};
+
+struct ObjectPatches {
+  int patch_begin = 0, patch_end = 0;
+  int point_begin = 0, point_end = 0;
+  std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place
+};
+
+struct PatchMesh {
+  dvec3 origin{0.0};     // world position of our frame's origin: the scene's centre, which keeps
+                         // single-precision ray tracing exact enough far from the world origin
+  double diagonal = 1.0; // scene size: ray offsets and relative sizes scale with it
+  std::vector<dvec3> vertices;  // relative to origin
+  std::vector<Patch> patches;
+  std::vector<ReceiverPoint> points;
+  std::vector<int> point_slot_begin;  // CSR: point -> patch * 4 + corner slots using it
+  std::vector<int> point_slots;
+  std::vector<ObjectPatches> objects;  // one per SceneDesc mesh
+  int degenerate_patches = 0;
+};
+
+PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings);
+
+}  // namespace radiosity

@@ -1,0 +1,137 @@
+#include "refine.h"
+
+#include <opensubdiv/far/primvarRefiner.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/far/topologyRefinerFactory.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+
+namespace radiosity {
+
+namespace Far = OpenSubdiv::Far;
+namespace Sdc = OpenSubdiv::Sdc;
+
+namespace {
+
+constexpr int kMaxLevel = 10;  // 4^10 patches per input quad: far past any sane request
+
+// The primvar type OpenSubdiv interpolates.
+struct Point3 {
+  dvec3 p{0.0};
+  void Clear(void* = nullptr) { p = dvec3(0.0); }
+  void AddWithWeight(const Point3& src, double w) { p += w * src.p; }
+};
+
+bool all_quads_or_triangles(const MeshDesc& mesh) {
+  return std::all_of(mesh.face_sizes.begin(), mesh.face_sizes.end(),
+                     [](int n) { return n == 3 || n == 4; });
+}
+
+// Faces taken as they are: no OpenSubdiv needed.
+RefinedMesh copy_faces(const MeshDesc& mesh) {
+  RefinedMesh out;
+  out.positions = mesh.positions;
+  out.input_vertex.resize(mesh.positions.size());
+  for (size_t i = 0; i < out.input_vertex.size(); ++i) out.input_vertex[i] = int(i);
+  int offset = 0;
+  for (size_t f = 0; f < mesh.face_sizes.size(); ++f) {
+    const int* v = &mesh.face_vertices[offset];
+    int n = mesh.face_sizes[f];
+    out.quads.push_back({v[0], v[1], v[2], n == 4 ? v[3] : v[2]});
+    out.quad_face.push_back(int(f));
+    offset += n;
+  }
+  return out;
+}
+
+}  // namespace
+
+int bilinear_level(const MeshDesc& mesh, double patch_size) {
+  if (!(patch_size > 0)) return 0;
+  double longest = 0.0;
+  int offset = 0;
+  for (int n : mesh.face_sizes) {
+    for (int i = 0; i < n; ++i) {
+      dvec3 a = dvec3(mesh.transform * glm::dvec4(mesh.positions[mesh.face_vertices[offset + i]], 1));
+      dvec3 b = dvec3(mesh.transform *
+                      glm::dvec4(mesh.positions[mesh.face_vertices[offset + (i + 1) % n]], 1));
+      longest = std::max(longest, glm::length(b - a));
+    }
+    offset += n;
+  }
+  if (longest <= patch_size) return 0;
+  return std::min(kMaxLevel, int(std::ceil(std::log2(longest / patch_size))));
+}
+
+RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
+  bool smooth = mesh.refine == Refinement::CatmullClark && mesh.level > 0;
+  int level = smooth ? std::min(mesh.level, kMaxLevel)
+              : mesh.refine == Refinement::Bilinear ? bilinear_levels
+                                                    : 0;
+  // n-gons need one bilinear step to become quads.
+  if (level == 0 && !all_quads_or_triangles(mesh)) level = 1;
+  if (level == 0) return copy_faces(mesh);
+
+  Far::TopologyDescriptor desc;
+  desc.numVertices = int(mesh.positions.size());
+  desc.numFaces = int(mesh.face_sizes.size());
+  desc.numVertsPerFace = mesh.face_sizes.data();
+  desc.vertIndicesPerFace = mesh.face_vertices.data();
+
+  Sdc::Options sdc;
+  // Blender's Subdivision Surface default ("Keep Corners").
+  sdc.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER);
+  using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
+  std::unique_ptr<Far::TopologyRefiner> refiner(Factory::Create(
+      desc, Factory::Options(smooth ? Sdc::SCHEME_CATMARK : Sdc::SCHEME_BILINEAR, sdc)));
+  if (!refiner) throw std::invalid_argument("OpenSubdiv rejected the topology of '" + mesh.name + "'");
+  refiner->RefineUniform(Far::TopologyRefiner::UniformOptions(level));
+
+  // Interpolate positions level by level, following vertices and faces back to the input.
+  std::vector<Point3> current(mesh.positions.size());
+  for (size_t i = 0; i < current.size(); ++i) current[i].p = mesh.positions[i];
+  std::vector<int> vertex_map(mesh.positions.size());
+  for (size_t i = 0; i < vertex_map.size(); ++i) vertex_map[i] = int(i);
+  Far::PrimvarRefinerReal<double> primvar(*refiner);
+  for (int l = 1; l <= level; ++l) {
+    std::vector<Point3> next(refiner->GetLevel(l).GetNumVertices());
+    primvar.Interpolate(l, current, next);
+    current.swap(next);
+    const Far::TopologyLevel& parent = refiner->GetLevel(l - 1);
+    for (int& v : vertex_map) v = parent.GetVertexChildVertex(v);
+  }
+
+  RefinedMesh out;
+  out.input_vertex = vertex_map;
+  const Far::TopologyLevel& last = refiner->GetLevel(level);
+  out.quads.resize(last.GetNumFaces());
+  out.quad_face.resize(last.GetNumFaces());
+  for (int f = 0; f < last.GetNumFaces(); ++f) {
+    Far::ConstIndexArray fv = last.GetFaceVertices(f);
+    out.quads[f] = {fv[0], fv[1], fv[2], fv[3]};
+    int parent = f;
+    for (int l = level; l > 0; --l) parent = refiner->GetLevel(l).GetFaceParentFace(parent);
+    out.quad_face[f] = parent;
+  }
+
+  out.positions.resize(current.size());
+  if (smooth) {
+    std::vector<Point3> limit(current.size()), du(current.size()), dv(current.size());
+    primvar.Limit(current, limit, du, dv);
+    out.normals.resize(current.size());
+    for (size_t i = 0; i < current.size(); ++i) {
+      out.positions[i] = limit[i].p;
+      dvec3 n = glm::cross(du[i].p, dv[i].p);
+      double len = glm::length(n);
+      out.normals[i] = len > 0 ? n / len : dvec3(0.0);
+    }
+  } else {
+    for (size_t i = 0; i < current.size(); ++i) out.positions[i] = current[i].p;
+  }
+  return out;
+}
+
+}  // namespace radiosity

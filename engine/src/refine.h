@@ -1,0 +1,25 @@
+// Refinement of an input polygon mesh into bilinear patches (quads) with OpenSubdiv.
+#pragma once
+
+#include "radiosity/scene.h"
+
+#include <array>
+#include <vector>
+
+namespace radiosity {
+
+struct RefinedMesh {
+  std::vector<dvec3> positions;  // object space
+  std::vector<dvec3> normals;    // per vertex limit normals (Catmull-Clark only, else empty)
+  std::vector<std::array<int, 4>> quads;  // counter-clockwise; a triangle repeats its last vertex
+  std::vector<int> quad_face;             // input face each quad came from
+  std::vector<int> input_vertex;          // input vertex -> refined vertex at the same place
+};
+
+// Bilinear levels needed for the mesh's longest world-space edge to come down to patch_size.
+int bilinear_level(const MeshDesc& mesh, double patch_size);
+
+// `bilinear_levels` applies to Refinement::Bilinear; Catmull-Clark uses mesh.level.
+RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels);
+
+}  // namespace radiosity

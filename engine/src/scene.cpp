@@ -1,0 +1,83 @@
+#include "radiosity/scene.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace radiosity {
+
+namespace {
+
+bool finite(const dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+[[noreturn]] void fail(const std::string& what) { throw std::invalid_argument(what); }
+
+std::string mesh_label(const MeshDesc& m, size_t i) {
+  return "object '" + (m.name.empty() ? "#" + std::to_string(i) : m.name) + "'";
+}
+
+void validate_mesh(const MeshDesc& m, size_t index, size_t material_count) {
+  std::string who = mesh_label(m, index);
+  for (size_t i = 0; i < m.positions.size(); ++i)
+    if (!finite(m.positions[i]))
+      fail(who + ": vertex " + std::to_string(i) + " has a NaN or infinite coordinate");
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(m.transform[c][r])) fail(who + ": transform has NaN or infinite entries");
+  if (m.face_materials.size() != m.face_sizes.size())
+    fail(who + ": " + std::to_string(m.face_sizes.size()) + " faces but " +
+         std::to_string(m.face_materials.size()) + " face materials");
+  size_t corners = 0;
+  for (size_t f = 0; f < m.face_sizes.size(); ++f) {
+    if (m.face_sizes[f] < 3) fail(who + ": face " + std::to_string(f) + " has fewer than 3 vertices");
+    corners += size_t(m.face_sizes[f]);
+    int mat = m.face_materials[f];
+    if (mat < 0 || size_t(mat) >= material_count)
+      fail(who + ": face " + std::to_string(f) + " uses material " + std::to_string(mat) +
+           " of " + std::to_string(material_count));
+  }
+  if (corners != m.face_vertices.size())
+    fail(who + ": face sizes add up to " + std::to_string(corners) + " corners but " +
+         std::to_string(m.face_vertices.size()) + " face vertex indices were given");
+  for (int v : m.face_vertices)
+    if (v < 0 || size_t(v) >= m.positions.size())
+      fail(who + ": face vertex index " + std::to_string(v) + " is out of range");
+  if (m.refine == Refinement::CatmullClark && (m.level < 0 || m.level > 10))
+    fail(who + ": Catmull-Clark level must be in 0..10");
+  if (!(m.patch_size >= 0) || !std::isfinite(m.patch_size))
+    fail(who + ": patch size must be a finite non-negative number");
+}
+
+}  // namespace
+
+void SceneDesc::validate() const {
+  for (size_t i = 0; i < materials.size(); ++i) {
+    const Material& m = materials[i];
+    std::string who = "material " + std::to_string(i);
+    if (!finite(m.reflectance) || !finite(m.emission)) fail(who + ": NaN or infinite value");
+    for (int c = 0; c < 3; ++c) {
+      if (m.reflectance[c] < 0 || m.reflectance[c] >= 1)
+        fail(who + ": reflectance must be in [0, 1) (a surface cannot reflect all light it gets)");
+      if (m.emission[c] < 0) fail(who + ": emission must not be negative");
+    }
+  }
+  for (size_t i = 0; i < meshes.size(); ++i) validate_mesh(meshes[i], i, materials.size());
+  for (size_t i = 0; i < lamps.size(); ++i) {
+    const Lamp& l = lamps[i];
+    std::string who = "lamp " + std::to_string(i);
+    if (!finite(l.position) || !finite(l.direction) || !finite(l.color) || !finite(l.u_axis) ||
+        !finite(l.v_axis) || !std::isfinite(l.radius) || !std::isfinite(l.angle) ||
+        !std::isfinite(l.spot_size) || !std::isfinite(l.spot_blend))
+      fail(who + ": NaN or infinite parameter");
+    if (l.color.x < 0 || l.color.y < 0 || l.color.z < 0) fail(who + ": negative strength");
+    if (l.radius < 0) fail(who + ": negative radius");
+    bool directional = l.type == Lamp::Type::Spot || l.type == Lamp::Type::Sun ||
+                       l.type == Lamp::Type::Disc;
+    if (directional && glm::length(l.direction) == 0) fail(who + ": zero direction");
+    if (l.type == Lamp::Type::Rect && glm::length(glm::cross(l.u_axis, l.v_axis)) == 0)
+      fail(who + ": rectangle has zero area");
+  }
+  if (!finite(world) || world.x < 0 || world.y < 0 || world.z < 0)
+    fail("world colour must be finite and non-negative");
+}
+
+}  // namespace radiosity

@@ -1,0 +1,51 @@
+// One shot of progressive refinement: what a shooter sends, and how a receiving point gathers it.
+//
+// A shot is a small hierarchy: the shooter's clusters, each with its mean unshot radiance per side,
+// and at the bottom the m x n micro-elements (cells) of its patches. Far from the receiver a flat
+// cluster acts as one sample; near it the receiver descends to cells, which are integrated exactly
+// when closer still. The first `frontier` elements are where every receiver starts, so even a
+// distant receiver sees the shooter through about `samples` rays.
+#pragma once
+
+#include "cluster_tree.h"
+#include "radiosity/form_factor.h"
+#include "visibility.h"
+
+#include <array>
+#include <vector>
+
+namespace radiosity {
+
+// Unshot radiance of a patch, per corner and side: [corner * 2 + side], side 0 = front.
+using CornerUnshot = std::array<dvec3, 8>;
+
+struct ShotCell {
+  Cell cell;
+  dvec3 radiance[2];  // front, back
+};
+
+struct ShotElement {
+  dvec3 centroid{0.0}, anchor{0.0}, normal{0.0};
+  double projected_area = 0.0;  // |vector area|: cos-weighted area is projected_area * |cos|
+  double radius = 0.0;
+  bool flat = false;
+  dvec3 radiance[2];            // power / area per side
+  int left = -1, right = -1;    // children (elements) for clusters
+  int cell_begin = 0, cell_end = 0;  // cells for patches (leaves)
+};
+
+struct Shot {
+  std::vector<ShotElement> elements;
+  std::vector<ShotCell> cells;
+  std::vector<int> frontier;
+  double near_factor = 3.0;
+};
+
+// The shot of cluster `node`, sending `scale` times its patches' unshot radiance.
+Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, int node,
+                  const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor);
+
+// Adds to the batch the rays carrying the shot's irradiance to receiving point `receiver`.
+void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch);
+
+}  // namespace radiosity

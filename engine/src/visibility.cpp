@@ -1,0 +1,125 @@
+#include "visibility.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace radiosity {
+
+namespace {
+
+constexpr double kRelativeEpsilon = 1e-5;
+
+RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatches& obj) {
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
+  int count = obj.patch_end - obj.patch_begin;
+  auto* index = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned), count));
+  // Vertices are referenced globally; copy the object's span so each geometry is self-contained.
+  int lo = INT32_MAX, hi = -1;
+  for (int p = obj.patch_begin; p < obj.patch_end; ++p)
+    for (int v : mesh.patches[p].vertex) lo = std::min(lo, v), hi = std::max(hi, v);
+  auto* vert = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), hi - lo + 1));
+  for (int v = lo; v <= hi; ++v)
+    for (int k = 0; k < 3; ++k) vert[3 * (v - lo) + k] = float(mesh.vertices[v][k]);
+  for (int p = obj.patch_begin; p < obj.patch_end; ++p)
+    for (int c = 0; c < 4; ++c) index[4 * (p - obj.patch_begin) + c] = unsigned(mesh.patches[p].vertex[c] - lo);
+  rtcCommitGeometry(geom);
+  return geom;
+}
+
+}  // namespace
+
+Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects)
+    : epsilon_(kRelativeEpsilon * mesh.diagonal) {
+  device_ = rtcNewDevice(nullptr);
+  if (!device_) throw std::runtime_error("Embree device could not be created");
+  top_ = rtcNewScene(device_);
+  for (size_t o = 0; o < mesh.objects.size(); ++o) {
+    const ObjectPatches& obj = mesh.objects[o];
+    if (obj.patch_end == obj.patch_begin) continue;
+    RTCGeometry quads = make_quads(device_, mesh, obj);
+    if (o < dynamic_objects.size() && dynamic_objects[o]) {
+      RTCScene own = rtcNewScene(device_);
+      rtcAttachGeometry(own, quads);
+      rtcCommitScene(own);
+      RTCGeometry inst = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+      rtcSetGeometryInstancedScene(inst, own);
+      const float identity[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+      rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, identity);
+      rtcCommitGeometry(inst);
+      rtcAttachGeometry(top_, inst);
+      rtcReleaseGeometry(inst);
+      instanced_.push_back(own);
+    } else {
+      rtcAttachGeometry(top_, quads);
+    }
+    rtcReleaseGeometry(quads);
+  }
+  rtcCommitScene(top_);
+}
+
+Visibility::~Visibility() {
+  for (RTCScene s : instanced_) rtcReleaseScene(s);
+  rtcReleaseScene(top_);
+  rtcReleaseDevice(device_);
+}
+
+void Visibility::occluded(RTCRay* rays, unsigned count) const {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  rtcOccluded1M(top_, &context, rays, count, sizeof(RTCRay));
+}
+
+void OcclusionBatch::push(int receiver, const dvec3& origin, const dvec3& dir, float tfar,
+                          const dvec3& front, const dvec3& back) {
+  RTCRay& r = rays_[count_];
+  r.org_x = float(origin.x), r.org_y = float(origin.y), r.org_z = float(origin.z);
+  r.dir_x = float(dir.x), r.dir_y = float(dir.y), r.dir_z = float(dir.z);
+  r.tnear = 0.0f;
+  r.tfar = tfar;
+  r.time = 0.0f;
+  r.mask = 0xFFFFFFFFu;
+  r.id = count_;
+  r.flags = 0;
+  receiver_[count_] = receiver;
+  carried_[count_][0] = front;
+  carried_[count_][1] = back;
+  if (++count_ == kCapacity) flush();
+}
+
+void OcclusionBatch::to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y,
+                              const dvec3& target_normal, const dvec3& front, const dvec3& back) {
+  double eps = vis_.epsilon();
+  dvec3 d = y - x;
+  dvec3 origin = x + (glm::dot(n, d) >= 0 ? eps : -eps) * n;
+  dvec3 end = y + (glm::dot(target_normal, d) <= 0 ? eps : -eps) * target_normal;
+  dvec3 dir = end - origin;
+  double len = glm::length(dir);
+  if (len <= 2 * eps) {  // touching: nothing fits in between
+    front_[receiver] += front;
+    back_[receiver] += back;
+    return;
+  }
+  push(receiver, origin, dir, float(1.0 - eps / len), front, back);
+}
+
+void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir,
+                                 const dvec3& front, const dvec3& back) {
+  double eps = vis_.epsilon();
+  push(receiver, x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, front, back);
+}
+
+void OcclusionBatch::flush() {
+  if (count_ == 0) return;
+  vis_.occluded(rays_, count_);
+  for (unsigned i = 0; i < count_; ++i)
+    if (rays_[i].tfar >= 0) {
+      front_[receiver_[i]] += carried_[i][0];
+      back_[receiver_[i]] += carried_[i][1];
+    }
+  traced_ += count_;
+  count_ = 0;
+}
+
+}  // namespace radiosity

@@ -1,0 +1,65 @@
+// Visibility with Embree: one BVH for the static geometry, one instance per dynamic object (so a
+// move is a transform update), and occlusion rays traced in batches.
+#pragma once
+
+#include "patch_mesh.h"
+
+#include <embree3/rtcore.h>
+
+#include <vector>
+
+namespace radiosity {
+
+class Visibility {
+ public:
+  Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects);
+  ~Visibility();
+  Visibility(const Visibility&) = delete;
+  Visibility& operator=(const Visibility&) = delete;
+
+  // Traces a stream of occlusion rays; an occluded ray comes back with tfar = -inf.
+  void occluded(RTCRay* rays, unsigned count) const;
+
+  // Offset that separates a ray's ends from the surfaces they lie on, relative to the scene size.
+  double epsilon() const { return epsilon_; }
+
+ private:
+  RTCDevice device_ = nullptr;
+  RTCScene top_ = nullptr;
+  std::vector<RTCScene> instanced_;
+  double epsilon_;
+};
+
+// Collects occlusion rays with the irradiance each carries to a receiving point, traces them in
+// streams and adds what arrives unoccluded to the receivers' accumulators (front and back side).
+class OcclusionBatch {
+ public:
+  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back) : vis_(vis), front_(front), back_(back) {}
+  ~OcclusionBatch() { flush(); }
+
+  // Segment from receiver point x (normal n) to target y; y is pulled off its own surface along
+  // target_normal, towards x.
+  void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal,
+                const dvec3& front, const dvec3& back);
+  // Ray from x to infinity along dir (sun, sky).
+  void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, const dvec3& front,
+                   const dvec3& back);
+  void flush();
+  long long rays_traced() const { return traced_; }
+
+ private:
+  void push(int receiver, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& front,
+            const dvec3& back);
+
+  static constexpr unsigned kCapacity = 256;
+  const Visibility& vis_;
+  dvec3* front_;
+  dvec3* back_;
+  RTCRay rays_[kCapacity];
+  int receiver_[kCapacity];
+  dvec3 carried_[kCapacity][2];
+  unsigned count_ = 0;
+  long long traced_ = 0;
+};
+
+}  // namespace radiosity

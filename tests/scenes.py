@@ -1,0 +1,76 @@
+"""Scenes built from numpy arrays for the engine's Python tests and the benchmarks."""
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "build", "engine"))
+import radiosity_engine as engine  # noqa: E402
+
+
+class Mesh:
+    """Faces collected as corner lists, turned into the engine's flat arrays."""
+
+    def __init__(self):
+        self.positions, self.faces, self.materials = [], [], []
+
+    def add_face(self, corners, material):
+        base = len(self.positions)
+        self.positions.extend(np.asarray(corners, float))
+        self.faces.append(list(range(base, base + len(corners))))
+        self.materials.append(material)
+
+    def add_box(self, centre, size, material, inward=False, angle=0.0):
+        """Axis-aligned box (turned by `angle` about z), faces counter-clockwise from outside."""
+        c, s = np.cos(angle), np.sin(angle)
+        turn = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+        h = np.asarray(size, float) / 2
+        corner = lambda x, y, z: np.asarray(centre) + turn @ (h * np.array([x, y, z]))
+        quads = [[(-1, -1, -1), (-1, 1, -1), (1, 1, -1), (1, -1, -1)],   # bottom, normal -z
+                 [(-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1)],       # top
+                 [(-1, -1, -1), (1, -1, -1), (1, -1, 1), (-1, -1, 1)],   # -y
+                 [(1, 1, -1), (-1, 1, -1), (-1, 1, 1), (1, 1, 1)],       # +y
+                 [(-1, 1, -1), (-1, -1, -1), (-1, -1, 1), (-1, 1, 1)],   # -x
+                 [(1, -1, -1), (1, 1, -1), (1, 1, 1), (1, -1, 1)]]       # +x
+        for q in quads:
+            pts = [corner(*p) for p in q]
+            self.add_face(pts[::-1] if inward else pts, material(q) if callable(material) else material)
+
+    def add_to(self, scene, **kwargs):
+        return scene.add_mesh(np.array(self.positions, float),
+                              np.array([len(f) for f in self.faces], np.int32),
+                              np.array([i for f in self.faces for i in f], np.int32),
+                              np.array(self.materials, np.int32), **kwargs)
+
+
+def cornell_box(patch_size=0.0):
+    """A 2 m Cornell box (open front, at -y) with a ceiling emitter and two blocks.
+    Returns (scene, object ids)."""
+    scene = engine.Scene()
+    white = scene.add_material((0.73, 0.73, 0.73))
+    red = scene.add_material((0.65, 0.05, 0.05))
+    green = scene.add_material((0.12, 0.45, 0.15))
+    light = scene.add_material((0.78, 0.78, 0.78), (15.0, 15.0, 15.0))
+    room = Mesh()
+    def wall_material(quad):
+        xs = {p[0] for p in quad}
+        if xs == {-1}:
+            return red
+        if xs == {1}:
+            return green
+        return white
+    # Room: an inward box without its front (-y) face.
+    box = Mesh()
+    box.add_box((0, 0, 1), (2, 2, 2), wall_material, inward=True)
+    for face, mat in zip(box.faces, box.materials):
+        corners = [box.positions[i] for i in face]
+        if all(abs(p[1] + 1) < 1e-9 for p in corners):
+            continue
+        room.add_face(corners, mat)
+    lamp = Mesh()
+    lamp.add_face([(-0.25, -0.25, 1.99), (0.25, -0.25, 1.99), (0.25, 0.25, 1.99), (-0.25, 0.25, 1.99)][::-1], light)
+    blocks = Mesh()
+    blocks.add_box((-0.35, 0.3, 0.6), (0.6, 0.6, 1.2), white, angle=0.3)
+    blocks.add_box((0.4, -0.3, 0.3), (0.6, 0.6, 0.6), white, angle=-0.3)
+    ids = [m.add_to(scene, refine="bilinear", patch_size=patch_size) for m in (room, lamp, blocks)]
+    return scene, ids
