@@ -44,7 +44,7 @@ struct Builder {
     for (int i = begin; i < end; ++i) {
       const Patch& p = mesh.patches[tree.order[i]];
       double d = glm::length(p.centre - node.centroid);
-      if (d < nearest) nearest = d, node.anchor = p.centre;
+      if (d < nearest) nearest = d, node.anchor = tree.order[i];
       for (int v : p.vertex) node.radius = std::max(node.radius, glm::length(mesh.vertices[v] - node.centroid));
     }
     node.flat = glm::length(node.vector_area) >= kFlat * node.area;

@@ -13,7 +13,7 @@ struct ClusterNode {
   int begin = 0, end = 0;    // range in ClusterTree::order
   int left = -1, right = -1; // children; -1 for a single-patch leaf
   dvec3 centroid{0.0};       // area-weighted
-  dvec3 anchor{0.0};         // a point on the surface near the centroid: where rays aim
+  int anchor = -1;           // the patch nearest the centroid: rays aim at its centre
   dvec3 vector_area{0.0};    // sum of normal * area: the cluster's projected area in any direction
   double area = 0.0;
   double radius = 0.0;       // bounding sphere around the centroid

@@ -43,11 +43,14 @@ double polygon_form_factor(const dvec3& x, const dvec3& n, const dvec3* polygon,
 SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
   // Exact for planar cells, so the factors of cells tiling a closed surface sum to one and a furnace
   // converges to E / (1 - rho) however bright; only a cell the receiver's plane cuts needs clipping.
+  // A cell in the receiver's own plane gives nothing, whatever the round-off: seen from inside, the
+  // formula would count it as the whole hemisphere.
+  double tolerance = 1e-9 * cell.radius;
   bool above = false, below = false;
   for (const dvec3& c : cell.corners) {
     double h = glm::dot(n, c - x);
-    above |= h > 0;
-    below |= h < 0;
+    above |= h > tolerance;
+    below |= h < -tolerance;
   }
   SideFactors f;
   if (above) f.front = polygon_form_factor(x, n, cell.corners, 4);

@@ -9,44 +9,68 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+bool is_zero(const dvec3& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
+
+// Copies a shooter's subtree into a shot. Radiance is interpolated or averaged only over what the
+// sample point sees: a patch or cluster running under a wall would otherwise carry light from the
+// lit room into the dark one.
 struct ShotBuilder {
   const PatchMesh& mesh;
   const ClusterTree& tree;
+  const Visibility* vis;
   const std::vector<CornerUnshot>& unshot;
   double scale;
   int cells_per_side;
   Shot& shot;
 
-  // Copies the subtree under `node`, returning its element index and filling power per side.
-  int copy(int node, dvec3 power[2]) {
+  dvec3 side_normal(const dvec3& n, int side) const { return side == 0 ? n : -n; }
+
+  bool sees(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, int side) const {
+    return !vis || vis->connected(a, side_normal(na, side), b, side_normal(nb, side));
+  }
+
+  int copy(int node) {
     const ClusterNode& n = tree.nodes[node];
     int id = int(shot.elements.size());
     shot.elements.emplace_back();
     ShotElement e;
     e.centroid = n.centroid;
-    e.anchor = n.anchor;
     e.projected_area = glm::length(n.vector_area);
     e.normal = e.projected_area > 0 ? n.vector_area / e.projected_area : dvec3(0.0);
     e.radius = n.radius;
     e.flat = n.flat;
-    power[0] = power[1] = dvec3(0.0);
     if (n.left < 0) {
-      int p = tree.order[n.begin];
-      add_cells(p, e);
-      const Patch& patch = mesh.patches[p];
-      for (int s = 0; s < 2; ++s) {
-        for (int c = 0; c < 4; ++c) power[s] += 0.25 * patch.area * unshot[p][c * 2 + s];
-        power[s] *= scale;
-      }
+      add_cells(tree.order[n.begin], e);
     } else {
-      dvec3 lp[2], rp[2];
-      e.left = copy(n.left, lp);
-      e.right = copy(n.right, rp);
-      for (int s = 0; s < 2; ++s) power[s] = lp[s] + rp[s];
+      e.left = copy(n.left);
+      e.right = copy(n.right);
+      if (e.flat) average_visible(n, e);  // only flat clusters ever stand for their patches
     }
-    for (int s = 0; s < 2; ++s) e.radiance[s] = n.area > 0 ? power[s] / n.area : dvec3(0.0);
     shot.elements[id] = e;
     return id;
+  }
+
+  void average_visible(const ClusterNode& n, ShotElement& e) {
+    const Patch& anchor = mesh.patches[n.anchor];
+    e.anchor = anchor.centre;
+    for (int side = 0; side < 2; ++side) {
+      dvec3 power(0.0);
+      double area = 0.0;
+      for (int i = n.begin; i < n.end; ++i) {
+        const Patch& p = mesh.patches[tree.order[i]];
+        dvec3 mean = 0.25 * (unshot[tree.order[i]][side] + unshot[tree.order[i]][2 + side] +
+                             unshot[tree.order[i]][4 + side] + unshot[tree.order[i]][6 + side]);
+        if (p.area == 0 || is_zero(mean)) {
+          area += p.area;
+          continue;
+        }
+        if (&p == &anchor || sees(anchor.centre, anchor.normal, p.centre, p.normal, side)) {
+          power += p.area * mean;
+          area += p.area;
+        }
+      }
+      e.radiance[side] = area > 0 ? scale * power / area : dvec3(0.0);
+    }
   }
 
   void add_cells(int p, ShotElement& e) {
@@ -64,10 +88,20 @@ struct ShotBuilder {
           sc.cell = cells[j * k + i];
           if (!(sc.cell.area > 0)) continue;
           double u = (i + 0.5) / k, v = (j + 0.5) / k;
+          double weight[4] = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
           for (int s = 0; s < 2; ++s) {
-            dvec3 corner_values[4];
-            for (int c = 0; c < 4; ++c) corner_values[c] = unshot[p][c * 2 + s];
-            sc.radiance[s] = scale * bilinear(corner_values, u, v);
+            dvec3 sum(0.0);
+            double total = 0.0;
+            for (int c = 0; c < 4; ++c) {
+              const dvec3& value = unshot[p][c * 2 + s];
+              const ReceiverPoint& corner = mesh.points[patch.point[c]];
+              if (!is_zero(value) &&
+                  !sees(sc.cell.centre, sc.cell.normal, corner.position, corner.normal, s))
+                continue;
+              sum += weight[c] * value;
+              total += weight[c];
+            }
+            sc.radiance[s] = total > 0 ? scale * sum / total : dvec3(0.0);
           }
           shot.cells.push_back(sc);
         }
@@ -76,11 +110,10 @@ struct ShotBuilder {
   }
 };
 
-bool is_zero(const dvec3& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
 
 }  // namespace
 
-Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, int node,
+Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, int node,
                   const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor) {
   // Frontier: split the widest cluster until there are `samples` of them or only patches remain.
   std::vector<int> frontier{node};
@@ -100,9 +133,8 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, int node,
 
   Shot shot;
   shot.near_factor = near_factor;
-  ShotBuilder builder{mesh, tree, unshot, scale, cells_per_side, shot};
-  dvec3 power[2];
-  builder.copy(node, power);
+  ShotBuilder builder{mesh, tree, vis, unshot, scale, cells_per_side, shot};
+  builder.copy(node);
   // Walk the subtree and its copy together to turn the frontier's clusters into elements.
   std::sort(frontier.begin(), frontier.end());
   std::vector<std::pair<int, int>> stack{{node, 0}};

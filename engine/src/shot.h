@@ -29,7 +29,7 @@ struct ShotElement {
   double projected_area = 0.0;  // |vector area|: cos-weighted area is projected_area * |cos|
   double radius = 0.0;
   bool flat = false;
-  dvec3 radiance[2];            // power / area per side
+  dvec3 radiance[2];            // mean unshot radiance per side, over what the anchor sees
   int left = -1, right = -1;    // children (elements) for clusters
   int cell_begin = 0, cell_end = 0;  // cells for patches (leaves)
 };
@@ -41,8 +41,9 @@ struct Shot {
   double near_factor = 3.0;
 };
 
-// The shot of cluster `node`, sending `scale` times its patches' unshot radiance.
-Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, int node,
+// The shot of cluster `node`, sending `scale` times its patches' unshot radiance. With `vis`, a
+// sample's radiance comes only from the corners / patches it sees (no light leaks under walls).
+Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, int node,
                   const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor);
 
 // Adds to the batch the rays carrying the shot's irradiance to receiving point `receiver`.

@@ -18,6 +18,7 @@ namespace {
 double channel_sum(const dvec3& v) { return v.x + v.y + v.z; }
 double abs_sum(const dvec3& v) { return std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z); }
 constexpr double kProgressInterval = 0.05;  // seconds between progress callbacks
+constexpr int kParallelMinimum = 256;       // receiving points worth a second thread
 
 }  // namespace
 
@@ -84,7 +85,9 @@ struct Solver::Impl {
     delta_back.resize(mesh.points.size(), dvec3(0.0));
     long long rays = 0;
     int count = int(mesh.points.size());
-#pragma omp parallel reduction(+ : rays)
+    // Small scenes stay on one thread: thousands of tiny parallel regions lose to spinning barriers,
+    // badly so when Blender or another process holds the other cores.
+#pragma omp parallel reduction(+ : rays) if (count > kParallelMinimum)
     {
       OcclusionBatch batch(*vis, delta_front.data(), delta_back.data());
 #pragma omp for schedule(dynamic, 32)
@@ -104,13 +107,13 @@ struct Solver::Impl {
   // Adds the gathered shot to the solution and to the unshot radiance of the receiving patches.
   void apply_delta() {
     int points = int(mesh.points.size());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (points > 16 * kParallelMinimum)
     for (int i = 0; i < points; ++i) {
       front[i] += delta_front[i];
       back[i] += delta_back[i];
     }
     int patches = int(mesh.patches.size());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (patches > 16 * kParallelMinimum)
     for (int p = 0; p < patches; ++p) {
       const Patch& patch = mesh.patches[p];
       if (patch.area == 0) continue;
@@ -137,7 +140,7 @@ struct Solver::Impl {
     for (size_t p = 0; p < mesh.patches.size(); ++p) emission[p].fill(material(int(p)).emission);
     for (size_t s = 0; s < shooters.size(); ++s)
       if (emits[s])
-        shots.push_back(cluster_shot(mesh, tree, shooters[s], emission, settings.samples_direct, 1.0,
+        shots.push_back(cluster_shot(mesh, tree, vis.get(), shooters[s], emission, settings.samples_direct, 1.0,
                                      settings.near_factor));
     bool world = channel_sum(scene.world) > 0;
     bool complete = gather_all([&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
@@ -169,7 +172,7 @@ struct Solver::Impl {
 
   bool shoot(int s) {
     double omega = settings.relaxation;
-    Shot shot = cluster_shot(mesh, tree, shooters[s], unshot, settings.samples_indirect, omega,
+    Shot shot = cluster_shot(mesh, tree, vis.get(), shooters[s], unshot, settings.samples_indirect, omega,
                              settings.near_factor);
     if (!gather_all([&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(shot, i, p, batch); }))
       return false;

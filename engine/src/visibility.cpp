@@ -1,5 +1,6 @@
 #include "visibility.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -69,6 +70,27 @@ void Visibility::occluded(RTCRay* rays, unsigned count) const {
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   rtcOccluded1M(top_, &context, rays, count, sizeof(RTCRay));
+}
+
+bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb) const {
+  double chord = glm::length(b - a);
+  double bend = std::acos(std::clamp(glm::dot(na, nb), -1.0, 1.0));
+  double lift = epsilon_ + 0.25 * chord * bend;  // a circular arc bulges chord * bend / 8
+  dvec3 origin = a + lift * na;
+  dvec3 dir = b + lift * nb - origin;
+  double len = glm::length(dir);
+  if (len <= 2 * epsilon_) return true;
+  RTCRay ray;
+  ray.org_x = float(origin.x), ray.org_y = float(origin.y), ray.org_z = float(origin.z);
+  ray.dir_x = float(dir.x), ray.dir_y = float(dir.y), ray.dir_z = float(dir.z);
+  ray.tnear = 0.0f;
+  ray.tfar = float(1.0 - epsilon_ / len);
+  ray.time = 0.0f;
+  ray.mask = 0xFFFFFFFFu;
+  ray.id = 0;
+  ray.flags = 0;
+  occluded(&ray, 1);
+  return ray.tfar >= 0;
 }
 
 void OcclusionBatch::push(int receiver, const dvec3& origin, const dvec3& dir, float tfar,

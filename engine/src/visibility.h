@@ -20,6 +20,11 @@ class Visibility {
   // Traces a stream of occlusion rays; an occluded ray comes back with tfar = -inf.
   void occluded(RTCRay* rays, unsigned count) const;
 
+  // Whether points a and b of surfaces with normals na, nb see each other on the side the normals
+  // point to. The ends are lifted off their surfaces by more than the surface can bulge between
+  // them, so two points of one curved patch do not occlude each other.
+  bool connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb) const;
+
   // Offset that separates a ray's ends from the surfaces they lie on, relative to the scene size.
   double epsilon() const { return epsilon_; }
 

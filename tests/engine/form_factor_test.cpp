@@ -198,3 +198,14 @@ TEST(SurfaceToSurface, CoaxialDiscs) {  // case 9
   }
   EXPECT_NEAR(sum / area, 0.3819660113, 1e-4);
 }
+
+TEST(PointToSurface, CoplanarCellGivesNothing) {
+  // A receiver inside a cell of its own (tilted, so round-off is not exactly zero) plane.
+  dvec3 u = glm::normalize(dvec3(1, 0.3, 0.1)), v = glm::normalize(glm::cross(dvec3(0.2, 0.1, 1), u));
+  dvec3 p[4] = {dvec3(0.1), dvec3(0.1) + u, dvec3(0.1) + u + v, dvec3(0.1) + v};
+  Cell cell;
+  bilinear_cells(p, 1, &cell);
+  SideFactors f = cell_form_factor(cell, dvec3(0.1) + 0.37 * u + 0.61 * v, glm::normalize(glm::cross(u, v)));
+  EXPECT_EQ(f.front, 0.0);
+  EXPECT_EQ(f.back, 0.0);
+}
