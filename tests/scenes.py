@@ -36,6 +36,13 @@ class Mesh:
             pts = [corner(*p) for p in q]
             self.add_face(pts[::-1] if inward else pts, material(q) if callable(material) else material)
 
+    def weld(self):
+        """Shares coincident vertices between faces, as a connected mesh (Catmull-Clark) needs."""
+        unique, inverse = np.unique(np.round(np.array(self.positions), 9), axis=0, return_inverse=True)
+        self.positions = list(unique)
+        self.faces = [[int(inverse[i]) for i in f] for f in self.faces]
+        return self
+
     def add_to(self, scene, **kwargs):
         return scene.add_mesh(np.array(self.positions, float),
                               np.array([len(f) for f in self.faces], np.int32),

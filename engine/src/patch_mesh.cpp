@@ -103,7 +103,10 @@ void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals) {
   for (size_t p = 0; p < pm.points.size(); ++p)
     if (centre_count[p] > 0) {
       ReceiverPoint& rp = pm.points[p];
-      rp.position += kInwardNudge * (centre_sum[p] / double(centre_count[p]) - rp.position);
+      // Along the tangent plane only: on a curved surface the patch centres lie below it, and a
+      // point moved towards them would sit inside the tessellated surface, shadowed by itself.
+      dvec3 towards = centre_sum[p] / double(centre_count[p]) - rp.position;
+      rp.position += kInwardNudge * (towards - glm::dot(towards, rp.normal) * rp.normal);
     }
 
   pm.point_slot_begin.assign(pm.points.size() + 1, 0);

@@ -88,7 +88,9 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
   std::unique_ptr<Far::TopologyRefiner> refiner(Factory::Create(
       desc, Factory::Options(smooth ? Sdc::SCHEME_CATMARK : Sdc::SCHEME_BILINEAR, sdc)));
   if (!refiner) throw std::invalid_argument("OpenSubdiv rejected the topology of '" + mesh.name + "'");
-  refiner->RefineUniform(Far::TopologyRefiner::UniformOptions(level));
+  Far::TopologyRefiner::UniformOptions uniform(level);
+  uniform.fullTopologyInLastLevel = true;  // limit positions and normals need it
+  refiner->RefineUniform(uniform);
 
   // Interpolate positions level by level, following vertices and faces back to the input.
   std::vector<Point3> current(mesh.positions.size());
@@ -121,12 +123,20 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
   if (smooth) {
     std::vector<Point3> limit(current.size()), du(current.size()), dv(current.size());
     primvar.Limit(current, limit, du, dv);
+    // The tangents' handedness at a vertex is OpenSubdiv's choice: orient each normal by the
+    // winding of the refined faces around it, which is what says where the front is.
+    std::vector<dvec3> winding(current.size(), dvec3(0.0));
+    for (const auto& q : out.quads) {
+      dvec3 n = glm::cross(limit[q[2]].p - limit[q[0]].p, limit[q[3]].p - limit[q[1]].p);
+      for (int v : q) winding[v] += n;
+    }
     out.normals.resize(current.size());
     for (size_t i = 0; i < current.size(); ++i) {
       out.positions[i] = limit[i].p;
       dvec3 n = glm::cross(du[i].p, dv[i].p);
       double len = glm::length(n);
-      out.normals[i] = len > 0 ? n / len : dvec3(0.0);
+      n = len > 0 ? n / len : dvec3(0.0);
+      out.normals[i] = glm::dot(n, winding[i]) < 0 ? -n : n;
     }
   } else {
     for (size_t i = 0; i < current.size(); ++i) out.positions[i] = current[i].p;

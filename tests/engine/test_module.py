@@ -1,0 +1,156 @@
+"""The Python module: arrays in and out, lamps against closed forms, progress, cancel, errors."""
+import math
+import os
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from scenes import Mesh, cornell_box, engine  # noqa: E402
+
+RHO = 0.5
+
+
+def floor_scene(size=20.0):
+    """A single upward floor quad with reflectance RHO: nothing else, so only direct light."""
+    scene = engine.Scene()
+    m = scene.add_material((RHO, RHO, RHO))
+    floor = Mesh()
+    h = size / 2
+    floor.add_face([(-h, -h, 0), (h, -h, 0), (h, h, 0), (-h, h, 0)], m)
+    return scene, floor
+
+
+def radiance_near(solver, obj, point):
+    """(position, radiance) of the patch corner nearest `point`."""
+    positions, radiance = solver.refined(obj)
+    i = np.argmin(np.linalg.norm(positions - point, axis=1))
+    return positions[i], radiance[i]
+
+
+def solve_floor(add_light, size=20.0):
+    scene, floor = floor_scene(size)
+    add_light(scene)
+    obj = floor.add_to(scene, refine="bilinear", patch_size=0.5)
+    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    solver.solve()
+    return solver, obj
+
+
+def test_point_lamp_is_intensity_over_distance_squared():
+    solver, obj = solve_floor(lambda s: s.add_point_light((0, 0, 2), (8, 8, 8)))
+    for target in [(0, 0, 0), (2, 0, 0), (3, -5, 0)]:
+        position, value = radiance_near(solver, obj, target)
+        to_lamp = np.array([0, 0, 2]) - position
+        d2 = to_lamp @ to_lamp
+        assert value[0] == pytest.approx(RHO * 8 * (to_lamp[2] / math.sqrt(d2)) / (math.pi * d2), rel=1e-3)
+
+
+def test_sphere_lamp_radius_softens_like_cycles():
+    solver, obj = solve_floor(lambda s: s.add_point_light((0, 0, 2), (8, 8, 8), radius=0.5))
+    assert radiance_near(solver, obj, (0, 0, 0))[1][0] == pytest.approx(RHO * 8 / (math.pi * 4.25), rel=1e-3)
+
+
+def test_sun_and_world():
+    tilt = math.radians(30)
+    solver, obj = solve_floor(lambda s: s.add_sun_light((math.sin(tilt), 0, -math.cos(tilt)), (3, 3, 3)))
+    assert radiance_near(solver, obj, (0, 0, 0))[1][0] == pytest.approx(RHO * 3 * math.cos(tilt) / math.pi, rel=1e-3)
+    solver, obj = solve_floor(lambda s: s.set_world((0.4, 0.4, 0.4)))
+    assert radiance_near(solver, obj, (0, 0, 0))[1][0] == pytest.approx(RHO * 0.4, rel=1e-3)
+
+
+def test_spot_lamp_cone():
+    solver, obj = solve_floor(lambda s: s.add_spot_light((0, 0, 2), (0, 0, -1), (8, 8, 8), spot_size=math.radians(60),
+                                                         spot_blend=0.0))
+    assert radiance_near(solver, obj, (0, 0, 0))[1][0] == pytest.approx(RHO * 8 / (math.pi * 4), rel=1e-3)
+    assert radiance_near(solver, obj, (2, 0, 0))[1][0] == 0.0  # 45 degrees: outside a 60 degree cone
+
+
+def test_rectangle_lamp_is_radiance_times_form_factor():
+    # Unit square lamp 1 m up, facing down: the centre below sees F = 0.239456470461.
+    solver, obj = solve_floor(lambda s: s.add_area_light((0, 0, 1), (0.5, 0, 0), (0, 0.5, 0), (2, 2, 2)))
+    assert radiance_near(solver, obj, (0, 0, 0))[1][0] == pytest.approx(RHO * 2 * 0.239456470461, rel=2e-3)
+    # One-sided: turned to face up, it lights nothing below.
+    solver, obj = solve_floor(lambda s: s.add_area_light((0, 0, 1), (0, 0.5, 0), (0.5, 0, 0), (2, 2, 2)))
+    assert radiance_near(solver, obj, (0, 0, 0))[1][0] == 0.0
+
+
+def test_arrays_progress_and_stats():
+    scene, ids = cornell_box()
+    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    calls = []
+    stats = solver.solve(progress=lambda fraction, residual: calls.append((fraction, residual)))
+    assert stats["converged"] and not stats["cancelled"]
+    assert stats["residual"] <= engine.Settings.preset("draft").threshold
+    assert calls and calls[-1][0] == 1.0
+    corners = solver.corner_radiance(ids[0])
+    assert corners.dtype == np.float32 and corners.shape[1] == 3
+    assert np.isfinite(corners).all() and (corners >= 0).all()
+    lamp = solver.corner_radiance(ids[1])
+    assert lamp.min() >= 15.0  # emission is part of the output, as in Cycles' COMBINED bake
+    assert solver.vertex_radiance(ids[2]).shape == (48, 3)  # two unwelded boxes
+
+
+def test_cancel_returns_cleanly_and_resumes():
+    scene, ids = cornell_box()
+    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    stats = solver.solve(progress=lambda fraction, residual: False)
+    assert stats["cancelled"] and not stats["converged"]
+    assert np.isfinite(solver.corner_radiance(ids[0])).all()
+    assert solver.solve()["converged"]
+
+
+def test_callback_errors_propagate():
+    scene, _ = cornell_box()
+    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+
+    def fail(fraction, residual):
+        raise RuntimeError("from the callback")
+    with pytest.raises(RuntimeError, match="from the callback"):
+        solver.solve(progress=fail)
+
+
+def test_solve_releases_the_gil():
+    scene, _ = cornell_box()
+    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    thread = threading.Thread(target=solver.solve)
+    ticks = 0
+    thread.start()
+    while thread.is_alive():
+        ticks += 1
+        thread.join(0.001)
+    assert ticks > 10
+
+
+def test_bad_input_raises_value_error():
+    scene, floor = floor_scene()
+    floor.positions[0] = np.array([np.nan, 0, 0])
+    floor.add_to(scene)
+    with pytest.raises(ValueError, match="NaN"):
+        engine.Solver(scene)
+    scene = engine.Scene()
+    scene.add_material((1.2, 0.5, 0.5))
+    with pytest.raises(ValueError, match="reflectance"):
+        engine.Solver(scene)
+    with pytest.raises(ValueError, match="preset"):
+        engine.Settings.preset("ultra")
+
+
+def test_catmull_clark_refines_onto_the_limit_surface():
+    scene = engine.Scene()
+    m = scene.add_material((0.5, 0.5, 0.5))
+    cube = Mesh()
+    cube.add_box((0, 0, 0), (2, 2, 2), m)
+    obj = cube.weld().add_to(scene, refine="catmull_clark", level=3)
+    scene.add_point_light((0, 0, 5), (10, 10, 10))
+    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    stats = solver.solve()
+    assert stats["patches"] == 6 * 4 ** 3
+    positions, radiance = solver.refined(obj)
+    r = np.linalg.norm(positions, axis=1)
+    assert 0.5 < r.min() and r.max() < 1.01  # the limit surface shrinks inside the cage's corners
+    top = radiance[positions[:, 2] > 0.55, 0]
+    bottom = radiance[positions[:, 2] < -0.55, 0]
+    assert top.min() > 0 and bottom.max() == 0.0  # lit on top, the underside in shadow
