@@ -205,6 +205,14 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("progress") = py::none(),
            "Solve to the threshold. progress(fraction, residual) may return False to cancel.")
       .def("cancel", &Solver::cancel)
+      .def("record_rays", &Solver::record_rays, py::arg("stride") = 1,
+           "Benchmark hook: keep every stride-th batch of visibility rays traced from now on")
+      .def("replay_recorded_rays",
+           [](const Solver& s) {
+             py::gil_scoped_release release;
+             return s.replay_recorded_rays();
+           },
+           "Benchmark hook: bare Embree rays per second on the kept rays")
       .def_property_readonly("stats", [](const Solver& s) { return stats_dict(s.stats()); })
       .def("power_balance",
            [](const Solver& s) {

@@ -8,12 +8,33 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+// atan2(y, x) for y >= 0, to double precision (Cephes' rational atan after reducing to [0, 0.66]).
+// libm's general atan2 was a sixth of a solve; this is the form factor's inner loop.
+double angle(double y, double x) {
+  double ax = std::fabs(x);
+  bool swapped = y > ax;
+  double t = swapped ? ax / y : (ax > 0 ? y / ax : 0.0);
+  double base = 0.0;
+  if (t > 0.66) {
+    base = kPi / 4;
+    t = (t - 1) / (t + 1);
+  }
+  double z = t * t;
+  double p = (((-8.750608600031904122785e-1 * z - 1.615753718733365076637e1) * z -
+               7.500855792314704667340e1) * z - 1.228866684490136173410e2) * z - 6.485021904942025371773e1;
+  double q = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z +
+               4.328810604912902668951e2) * z + 4.853903996359136964868e2) * z + 1.945506571482613964425e2;
+  double a = base + t + t * z * p / q;
+  if (swapped) a = kPi / 2 - a;
+  return x < 0 ? kPi - a : a;
+}
+
 // Edge term of Lambert's formula: angle subtended times the cosine of the edge plane's normal.
 double edge_term(const dvec3& n, const dvec3& a, const dvec3& b) {
   dvec3 c = glm::cross(a, b);
   double len = glm::length(c);
   if (len <= 0.0) return 0.0;  // edge through x or degenerate: contributes nothing
-  return std::atan2(len, glm::dot(a, b)) * glm::dot(n, c) / len;
+  return angle(len, glm::dot(a, b)) * glm::dot(n, c) / len;
 }
 
 }  // namespace

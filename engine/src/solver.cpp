@@ -248,6 +248,9 @@ const SolveStats& Solver::solve(const ProgressCallback& progress) { return impl_
 void Solver::cancel() { impl_->cancel_requested = true; }
 const SolveStats& Solver::stats() const { return impl_->stats; }
 
+void Solver::record_rays(int stride) { impl_->vis->record(stride); }
+double Solver::replay_recorded_rays() const { return impl_->vis->replay_recorded(); }
+
 PowerBalance Solver::power_balance() const {
   const Impl& s = *impl_;
   PowerBalance b;

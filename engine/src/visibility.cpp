@@ -1,6 +1,7 @@
 #include "visibility.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
@@ -67,9 +68,36 @@ Visibility::~Visibility() {
 }
 
 void Visibility::occluded(RTCRay* rays, unsigned count) const {
+  if (recording_) {
+    std::lock_guard<std::mutex> lock(recording_->mutex);
+    if (recording_->batches++ % recording_->stride == 0)
+      recording_->batches_kept.emplace_back(rays, rays + count);
+  }
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   rtcOccluded1M(top_, &context, rays, count, sizeof(RTCRay));
+}
+
+void Visibility::record(int stride) {
+  recording_ = std::make_unique<Recording>();
+  recording_->stride = std::max(1, stride);
+}
+
+double Visibility::replay_recorded() const {
+  if (!recording_ || recording_->batches_kept.empty()) return 0.0;
+  std::vector<std::vector<RTCRay>> batches = recording_->batches_kept;  // tracing overwrites tfar
+  long long rays = 0;
+  for (const auto& b : batches) rays += b.size();
+  int count = int(batches.size());
+  auto start = std::chrono::steady_clock::now();
+#pragma omp parallel for schedule(dynamic, 16)
+  for (int i = 0; i < count; ++i) {
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    rtcOccluded1M(top_, &context, batches[i].data(), unsigned(batches[i].size()), sizeof(RTCRay));
+  }
+  double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return rays / seconds;
 }
 
 bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb) const {

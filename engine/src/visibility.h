@@ -6,6 +6,8 @@
 
 #include <embree3/rtcore.h>
 
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace radiosity {
@@ -25,6 +27,11 @@ class Visibility {
   // them, so two points of one curved patch do not occlude each other.
   bool connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb) const;
 
+  // Benchmark hooks: keep a copy of every `stride`-th traced batch, then trace the copies again with
+  // nothing else going on (same scene, same batch size, all cores) and return rays per second.
+  void record(int stride);
+  double replay_recorded() const;
+
   // Offset that separates a ray's ends from the surfaces they lie on, relative to the scene size.
   double epsilon() const { return epsilon_; }
 
@@ -33,6 +40,13 @@ class Visibility {
   RTCScene top_ = nullptr;
   std::vector<RTCScene> instanced_;
   double epsilon_;
+  struct Recording {
+    std::mutex mutex;
+    int stride = 1;
+    long long batches = 0;
+    std::vector<std::vector<RTCRay>> batches_kept;
+  };
+  std::unique_ptr<Recording> recording_;
 };
 
 // Collects occlusion rays with the irradiance each carries to a receiving point, traces them in

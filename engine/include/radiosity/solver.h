@@ -47,6 +47,11 @@ class Solver {
   const SolveStats& stats() const;
   PowerBalance power_balance() const;
 
+  // Benchmark hooks: keep every `stride`-th batch of visibility rays of later solves, and trace
+  // the kept rays again through bare Embree, returning its rays per second.
+  void record_rays(int stride);
+  double replay_recorded_rays() const;
+
   // Outgoing radiance on the front side at each input face corner / vertex (mean of its corners).
   std::vector<float> corner_radiance(int object) const;  // 3 floats per face corner
   std::vector<float> vertex_radiance(int object) const;  // 3 floats per input vertex
