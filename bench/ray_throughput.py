@@ -1,0 +1,43 @@
+"""Rays per second of the solver against bare Embree tracing the same rays on the same scene.
+
+The solver's rate counts the whole solve (form factors, shot building, bookkeeping); the bare rate
+replays a sample of the very batches the solver traced, through rtcOccluded1M on all cores.
+Target: ratio >= 0.7."""
+import os
+import statistics
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+from scenes import cornell_box, engine  # noqa: E402
+
+
+def measure(preset, repeats=3):
+    ratios, solver_rates, bare_rates = [], [], []
+    for _ in range(repeats):
+        scene, _ = cornell_box()
+        solver = engine.Solver(scene, engine.Settings.preset(preset))
+        stats = solver.solve()
+        solver_rate = stats["rays"] / stats["seconds"]
+        # Same scene again, keeping every 8th batch of rays to replay bare.
+        scene, _ = cornell_box()
+        recorder = engine.Solver(scene, engine.Settings.preset(preset))
+        recorder.record_rays(8)
+        recorder.solve()
+        bare_rate = recorder.replay_recorded_rays()
+        solver_rates.append(solver_rate)
+        bare_rates.append(bare_rate)
+        ratios.append(solver_rate / bare_rate)
+    return stats, statistics.median(solver_rates), statistics.median(bare_rates), statistics.median(ratios)
+
+
+def main():
+    print(f"{'scene':12} {'preset':8} {'points':>7} {'rays':>11} {'solver Mrays/s':>15} "
+          f"{'bare Mrays/s':>13} {'ratio':>6}   (medians of 3)")
+    for preset in sys.argv[1:] or ["draft", "default"]:
+        stats, solver_rate, bare_rate, ratio = measure(preset)
+        print(f"{'cornell_box':12} {preset:8} {stats['points']:7d} {stats['rays']:11d} "
+              f"{solver_rate / 1e6:15.2f} {bare_rate / 1e6:13.2f} {ratio:6.2f}")
+
+
+if __name__ == "__main__":
+    main()
