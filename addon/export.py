@@ -1,0 +1,435 @@
+"""Blender depsgraph -> flat numpy arrays for the radiosity engine.
+
+No per-vertex Python loops: every per-element array comes from ``foreach_get`` into numpy.
+Lamp conversions follow Cycles 3.4.1 as measured in ``CYCLES_UNITS.md``:
+
+    point / spot  intensity  I = colour * P / (4 pi)            [W/sr]   (irradiance I cos / r^2)
+    spot cone     a(phi) = cos(phi) * smoothstep((cos(phi) - c0) / ((1 - c0) * blend)), c0 = cos(size/2)
+    sun           irradiance E = colour * S                      [W/m^2]  (on a perpendicular plane)
+    area          radiance   L = colour * P / (4 * A_world)      one-sided, towards the lamp's local -Z
+    world         radiance   colour * strength
+    emission      radiance   colour * strength, two-sided
+
+The engine's unknown is outgoing radiance B = E + rho * irradiance / pi.
+
+Entry point: ``export_scene(depsgraph) -> SceneExport``.
+"""
+from dataclasses import dataclass, field
+import math
+
+import bpy
+import numpy as np
+
+__all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "export_scene", "to_engine",
+           "export_materials_of", "material_values", "world_radiance", "light_values",
+           "POINT_INTENSITY_PER_WATT", "AREA_RADIANCE_FACTOR", "DEFAULT_REFLECTANCE"]
+
+POINT_INTENSITY_PER_WATT = 1.0 / (4.0 * math.pi)   # W/sr per W, point and spot
+AREA_RADIANCE_FACTOR = 0.25                        # L = AREA_RADIANCE_FACTOR * P / A_world
+DEFAULT_REFLECTANCE = (0.8, 0.8, 0.8)             # Cycles' shader for faces without a material
+
+
+# ----------------------------------------------------------------------------- data classes
+@dataclass
+class MaterialExport:
+    name: str
+    reflectance: tuple            # rho, linear RGB
+    emission: tuple               # emitted radiance, linear RGB, two-sided
+    warnings: list = field(default_factory=list)
+
+
+@dataclass
+class MeshExport:
+    name: str                     # object name (instances: "name[i]")
+    positions: np.ndarray         # (N,3) float64, object space
+    face_sizes: np.ndarray        # (F,) int32
+    face_vertices: np.ndarray     # (K,) int32, K = face_sizes.sum()
+    face_materials: np.ndarray    # (F,) int32 into SceneExport.materials
+    transform: np.ndarray         # (4,4) float64, object -> world
+    refine: str = "bilinear"      # "none" | "bilinear" | "catmull_clark"; plain meshes are "bilinear"
+    level: int = 0                # Catmull-Clark level (subdivision modifier); 0 with "bilinear":
+                                  # the engine picks the bilinear level from its patch size
+    loop_indices: np.ndarray = None   # (K,) int32 mesh loop of each exported corner (None = identity)
+    matches_original: bool = True     # exported corners == the original mesh's loops (write-back ok)
+    animated: bool = False
+    object_name: str = ""
+
+
+@dataclass
+class LightExport:
+    name: str
+    kind: str                     # "point" | "spot" | "sun" | "area"
+    position: np.ndarray = None   # (3,) world
+    direction: np.ndarray = None  # (3,) unit, direction the light travels (spot axis, sun rays, area normal)
+    intensity: np.ndarray = None  # (3,) W/sr, point and spot
+    radius: float = 0.0           # point/spot soft radius
+    spot_size: float = 0.0        # full cone angle, radians
+    spot_blend: float = 0.0
+    irradiance: np.ndarray = None # (3,) sun, W/m^2 on a perpendicular plane
+    angle: float = 0.0            # sun angular diameter, radians
+    radiance: np.ndarray = None   # (3,) area lamp emitted radiance
+    u_half_axis: np.ndarray = None    # (3,) world, half extent along the lamp's local X
+    v_half_axis: np.ndarray = None    # (3,) world, half extent along the lamp's local Y
+                                      # (the lamp emits along -(u x v); swapped for mirrored lamps)
+    shape: str = ""               # "rect" | "disc" (engine names; a disc's axes may differ: ellipse)
+    area: float = 0.0             # world area of the area lamp
+    warnings: list = field(default_factory=list)
+
+
+@dataclass
+class SceneExport:
+    meshes: list
+    materials: list
+    lights: list
+    world: np.ndarray             # (3,) background radiance
+    frame: int = 0
+    warnings: list = field(default_factory=list)
+
+    def material_index(self, name):
+        return [m.name for m in self.materials].index(name)
+
+    def mesh(self, name):
+        for m in self.meshes:
+            if m.name == name:
+                return m
+        raise KeyError(name)
+
+    def light(self, name):
+        for l in self.lights:
+            if l.name == name:
+                return l
+        raise KeyError(name)
+
+
+# ----------------------------------------------------------------------------- materials
+def _rgb(v):
+    return tuple(float(x) for x in tuple(v)[:3])
+
+
+def _input_value(node, name, warnings):
+    sock = node.inputs.get(name)
+    if sock is None:
+        return None
+    if sock.is_linked:
+        warnings.append(f"{node.name}.{name} is linked to a node; using its unlinked value")
+    v = sock.default_value
+    try:
+        return tuple(v)
+    except TypeError:
+        return float(v)
+
+
+def _shader(node, warnings, depth=0):
+    """(reflectance, emission) of a shader node, as numpy (3,) arrays."""
+    zero = np.zeros(3)
+    if node is None or depth > 16:
+        return zero, zero
+    t = node.type
+    if t == 'BSDF_DIFFUSE':
+        return np.array(_input_value(node, "Color", warnings)[:3]), zero
+    if t == 'EMISSION':
+        c = np.array(_input_value(node, "Color", warnings)[:3])
+        return zero, c * float(_input_value(node, "Strength", warnings))
+    if t == 'BSDF_PRINCIPLED':
+        base = np.array(_input_value(node, "Base Color", warnings)[:3])
+        metal = float(_input_value(node, "Metallic", warnings) or 0.0)
+        trans = float(_input_value(node, "Transmission", warnings) or 0.0) \
+            if node.inputs.get("Transmission") is not None else 0.0
+        ecol = _input_value(node, "Emission", warnings)
+        if ecol is None:                                  # Blender 4.x
+            ecol = _input_value(node, "Emission Color", warnings)
+        estr = _input_value(node, "Emission Strength", warnings)
+        em = np.array(ecol[:3]) * (1.0 if estr is None else float(estr))
+        if metal > 0 or trans > 0:
+            warnings.append(f"{node.name}: metallic/transmission treated as diffuse loss")
+        return base * (1 - metal) * (1 - trans), em
+    if t == 'ADD_SHADER':
+        a = _shader(_linked(node.inputs[0]), warnings, depth + 1)
+        b = _shader(_linked(node.inputs[1]), warnings, depth + 1)
+        return a[0] + b[0], a[1] + b[1]
+    if t == 'MIX_SHADER':
+        f = float(_input_value(node, "Fac", warnings))
+        a = _shader(_linked(node.inputs[1]), warnings, depth + 1)
+        b = _shader(_linked(node.inputs[2]), warnings, depth + 1)
+        return (1 - f) * a[0] + f * b[0], (1 - f) * a[1] + f * b[1]
+    if t == 'GROUP' or t == 'REROUTE':
+        warnings.append(f"{node.name}: {t} node not followed; treated as black")
+        return zero, zero
+    warnings.append(f"{node.name}: unsupported shader {t}; treated as black")
+    return zero, zero
+
+
+def _linked(socket):
+    if socket is None or not socket.is_linked:
+        return None
+    return socket.links[0].from_node
+
+
+def _output_node(tree, types=('OUTPUT_MATERIAL',)):
+    outs = [n for n in tree.nodes if n.type in types and getattr(n, "target", 'ALL') in ('ALL', 'CYCLES')]
+    for n in outs:
+        if n.is_active_output:
+            return n
+    return outs[0] if outs else None
+
+
+def material_values(mat):
+    """MaterialExport for a bpy Material (or None: Cycles' default grey diffuse)."""
+    if mat is None:
+        return MaterialExport("<default>", DEFAULT_REFLECTANCE, (0.0, 0.0, 0.0))
+    warnings = []
+    if mat.use_nodes and mat.node_tree is not None:
+        out = _output_node(mat.node_tree)
+        if out is None:
+            return MaterialExport(mat.name, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), ["no material output"])
+        rho, em = _shader(_linked(out.inputs["Surface"]), warnings)
+    else:
+        rho, em = np.array(mat.diffuse_color[:3]), np.zeros(3)
+    return MaterialExport(mat.name, _rgb(rho), _rgb(em), warnings)
+
+
+def world_radiance(world):
+    """Background radiance (3,) of a World (colour * strength of its Background node)."""
+    if world is None:
+        return np.zeros(3)
+    if world.use_nodes and world.node_tree is not None:
+        out = _output_node(world.node_tree, ('OUTPUT_WORLD',))
+        node = _linked(out.inputs["Surface"]) if out is not None else None
+        if node is None:
+            return np.zeros(3)
+        if node.type == 'BACKGROUND':
+            c = node.inputs["Color"]
+            col = np.array(c.default_value[:3]) if not c.is_linked else np.array(world.color[:3])
+            return col * float(node.inputs["Strength"].default_value)
+        return np.zeros(3)
+    return np.array(world.color[:3], dtype=np.float64)
+
+
+def export_materials_of(ob, registry, materials):
+    """Slot -> scene-wide material index lookup table (int32 array, at least one entry)."""
+    lut = []
+    for slot in ob.material_slots:
+        m = slot.material
+        key = m.original.name if m is not None else None
+        if key not in registry:
+            registry[key] = len(materials)
+            materials.append(material_values(m.original if m is not None else None))
+        lut.append(registry[key])
+    if not lut:
+        if None not in registry:
+            registry[None] = len(materials)
+            materials.append(material_values(None))
+        lut.append(registry[None])
+    return np.asarray(lut, np.int32)
+
+
+# ----------------------------------------------------------------------------- meshes
+def _last_subsurf(ob):
+    mods = [m for m in ob.modifiers if m.show_render]
+    if mods and mods[-1].type == 'SUBSURF':
+        return mods[-1]
+    return None
+
+
+def mesh_arrays(me):
+    """(positions f64 (N,3), face_sizes i32, face_vertices i32, material_index i32, loop_indices or None)."""
+    nv, nf, nl = len(me.vertices), len(me.polygons), len(me.loops)
+    co = np.empty(nv * 3, np.float32)           # matches the property type: the fast path
+    me.vertices.foreach_get("co", co)
+    sizes = np.empty(nf, np.int32)
+    me.polygons.foreach_get("loop_total", sizes)
+    starts = np.empty(nf, np.int32)
+    me.polygons.foreach_get("loop_start", starts)
+    lv = np.empty(nl, np.int32)
+    me.loops.foreach_get("vertex_index", lv)
+    mi = np.empty(nf, np.int32)
+    me.polygons.foreach_get("material_index", mi)
+    contiguous = np.zeros(nf, np.int64)
+    if nf:
+        contiguous[1:] = np.cumsum(sizes[:-1], dtype=np.int64)
+    loops = None
+    if nf and (not np.array_equal(contiguous, starts) or sizes.sum() != nl):
+        loops = (np.repeat(starts - contiguous, sizes) + np.arange(int(sizes.sum()))).astype(np.int32)
+        lv = lv[loops]
+    return co.reshape(-1, 3).astype(np.float64), sizes, lv, mi, loops
+
+
+def _needs_reevaluation(ob):
+    """True when ob's cage (mesh without its last Subdivision Surface) is not simply ob.data."""
+    sub = _last_subsurf(ob)
+    if sub is None:
+        return False
+    others = [m for m in ob.modifiers if m.show_render and m is not sub]
+    return bool(others) or ob.data.shape_keys is not None
+
+
+def _cages_by_reevaluation(objects, depsgraph):
+    """{name: Mesh copy} of the evaluated meshes of `objects` (originals) with their last
+    Subdivision Surface modifier disabled. One depsgraph update for all of them, then restore."""
+    if not objects:
+        return {}
+    saved = []
+    for ob in objects:
+        sub = _last_subsurf(ob)
+        saved.append((sub, sub.show_viewport))
+        sub.show_viewport = False
+    try:
+        depsgraph.update()
+        return {ob.name: bpy.data.meshes.new_from_object(ob.evaluated_get(depsgraph)) for ob in objects}
+    finally:
+        for sub, v in saved:
+            sub.show_viewport = v
+        depsgraph.update()
+
+
+def _is_animated(ob):
+    o = ob
+    while o is not None:
+        ad = o.animation_data
+        if ad is not None and (ad.action is not None or len(ad.drivers) or len(ad.nla_tracks)):
+            return True
+        o = o.parent
+    return False
+
+
+def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_render_levels=True, cage=None):
+    """MeshExport of one evaluated object. `cage`: precomputed cage Mesh (see _cages_by_reevaluation)."""
+    orig = ob_eval.original
+    sub = _last_subsurf(orig)
+    refine, level = "bilinear", 0
+    if sub is not None:
+        level = int(sub.render_levels if use_render_levels else sub.levels)
+        if sub.subdivision_type == 'CATMULL_CLARK' and level > 0:
+            refine = "catmull_clark"
+        else:                   # Simple subdivision keeps flat faces flat: the engine's own bilinear
+            level = 0
+        me = cage if cage is not None else orig.data
+        cleanup = lambda: None
+    else:
+        me = ob_eval.to_mesh()
+        cleanup = ob_eval.to_mesh_clear
+    matches = len(me.loops) == len(orig.data.loops) and len(me.polygons) == len(orig.data.polygons)
+    try:
+        co, sizes, fv, mi, loops = mesh_arrays(me)
+    finally:
+        cleanup()
+    lut = export_materials_of(ob_eval, registry, materials)
+    fm = lut[np.clip(mi, 0, len(lut) - 1)]
+    return MeshExport(name or ob_eval.name, co, sizes, fv, fm.astype(np.int32),
+                      np.array(matrix, np.float64), refine, level, loops, matches,
+                      _is_animated(orig), orig.name)
+
+
+# ----------------------------------------------------------------------------- lights
+def _unit(v):
+    v = np.asarray(v, np.float64)
+    n = np.linalg.norm(v)
+    return v / n if n > 0 else v
+
+
+def light_values(ob_eval, matrix, name=None):
+    L = ob_eval.data
+    M = np.array(matrix, np.float64)
+    color = np.array(L.color[:3], np.float64)
+    pos = M[:3, 3].copy()
+    down = _unit(-M[:3, 2])                          # lamps point along their local -Z
+    le = LightExport(name or ob_eval.name, L.type.lower(), position=pos, direction=down)
+    if L.type in ('POINT', 'SPOT'):
+        le.intensity = color * L.energy * POINT_INTENSITY_PER_WATT
+        le.radius = float(L.shadow_soft_size)
+        if L.type == 'SPOT':
+            le.spot_size = float(L.spot_size)
+            le.spot_blend = float(L.spot_blend)
+    elif L.type == 'SUN':
+        le.irradiance = color * L.energy
+        le.angle = float(L.angle)
+        le.position = None
+    elif L.type == 'AREA':
+        sx = float(L.size)
+        sy = float(L.size_y) if L.shape in ('RECTANGLE', 'ELLIPSE') else sx
+        u = M[:3, 0] * (sx / 2)
+        v = M[:3, 1] * (sy / 2)
+        if np.linalg.det(M[:3, :3]) < 0:               # mirrored: keep -(u x v) = the lamp's -Z
+            u, v = v, u
+        ellipse = L.shape in ('DISK', 'ELLIPSE')
+        le.shape = "disc" if ellipse else "rect"
+        lu, lv = np.linalg.norm(u), np.linalg.norm(v)
+        le.area = float(math.pi * lu * lv if ellipse else 4.0 * lu * lv)
+        le.u_half_axis, le.v_half_axis = u, v
+        le.radiance = color * L.energy * AREA_RADIANCE_FACTOR / le.area if le.area > 0 else np.zeros(3)
+        if ellipse and abs(lu - lv) > 1e-6 * max(lu, lv):
+            le.warnings.append(f"{le.name}: elliptic area lamp ({2*lu:.3g} x {2*lv:.3g}); "
+                               "radiance is exact, the engine's disc uses radius |u|")
+        spread = getattr(L, "spread", math.pi)
+        if spread < math.pi - 1e-6:
+            le.warnings.append(f"{le.name}: spread {math.degrees(spread):.0f} deg ignored (treated as 180)")
+    return le
+
+
+# ----------------------------------------------------------------------------- scene
+def export_scene(depsgraph=None, use_render_levels=True):
+    """Export the evaluated scene. Objects hidden from render are skipped."""
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    scene = depsgraph.scene_eval
+    registry, materials, meshes, lights, warnings = {}, [], [], [], []
+    # Collect first: _cages_by_reevaluation re-evaluates the depsgraph, invalidating the iterator.
+    items = []
+    counts = {}
+    for inst in depsgraph.object_instances:
+        ob = inst.object
+        if ob.type not in ('MESH', 'LIGHT') or ob.original.hide_render:
+            continue
+        if inst.is_instance:
+            counts[ob.name] = counts.get(ob.name, 0) + 1
+            name = f"{ob.name}[{counts[ob.name] - 1}]"
+        else:
+            name = ob.name
+        items.append((ob.original, ob.type, np.array(inst.matrix_world, np.float64), name))
+    todo = {o.name: o for o, kind, _, _ in items if kind == 'MESH' and _needs_reevaluation(o)}
+    cages = _cages_by_reevaluation(list(todo.values()), depsgraph)
+    try:
+        for orig, kind, M, name in items:
+            ev = orig.evaluated_get(depsgraph)
+            if kind == 'MESH':
+                m = export_mesh(ev, depsgraph, M, registry, materials, name, use_render_levels,
+                                cages.get(orig.name))
+                if len(m.face_sizes):
+                    meshes.append(m)
+            else:
+                le = light_values(ev, M, name)
+                warnings += le.warnings
+                lights.append(le)
+    finally:
+        for me in cages.values():
+            bpy.data.meshes.remove(me)
+    for m in materials:
+        warnings += [f"material {m.name}: {w}" for w in m.warnings]
+    return SceneExport(meshes, materials, lights, world_radiance(scene.world), scene.frame_current, warnings)
+
+
+# ----------------------------------------------------------------------------- engine feed
+def to_engine(sx, engine, patch_size=0.0, dynamic=None):
+    """Build an engine Scene from a SceneExport. `engine` is the radiosity_engine module (passed in,
+    so this file imports without it). `dynamic`: None = animated objects, or a set of mesh names.
+    Returns (scene, {mesh name: engine object id})."""
+    s = engine.Scene()
+    mids = np.array([s.add_material(reflectance=m.reflectance, emission=m.emission) for m in sx.materials]
+                    or [0], np.int32)
+    ids = {}
+    for m in sx.meshes:
+        dyn = m.animated if dynamic is None else (m.name in dynamic)
+        ids[m.name] = s.add_mesh(m.positions, m.face_sizes, m.face_vertices, mids[m.face_materials],
+                                 m.transform, refine=m.refine, level=m.level, patch_size=patch_size,
+                                 dynamic=bool(dyn), name=m.name)
+    for l in sx.lights:
+        if l.kind == "point":
+            s.add_point_light(l.position, l.intensity, l.radius)
+        elif l.kind == "spot":
+            s.add_spot_light(l.position, l.direction, l.intensity, l.radius, l.spot_size, l.spot_blend)
+        elif l.kind == "sun":
+            s.add_sun_light(l.direction, l.irradiance, l.angle)
+        elif l.kind == "area":
+            s.add_area_light(l.position, l.u_half_axis, l.v_half_axis, l.radiance, l.shape)
+    s.set_world(np.asarray(sx.world, np.float64))
+    return s, ids

@@ -1,0 +1,309 @@
+"""radiosity.bake, radiosity.bake_animation, radiosity.clear.
+
+From a script (execute) the bake runs synchronously. From the UI (invoke) it runs modal: each frame's
+solve runs in a Python thread (the engine releases the GIL), a timer polls it, Esc cancels.
+Colours are written only after every frame solved; a cancel or an error leaves them untouched.
+"""
+import threading
+
+import bpy
+from bpy.app.handlers import persistent
+
+from . import bake, writeback
+
+# Per-frame colours of the last animation bake: {scene name: {frame: {object name: (loops,4) rgba}}}.
+# Kept in memory (not saved in the .blend); frame_change_post writes the current frame's colours.
+frame_cache = {}
+
+MAX_REPORTS = 8
+
+
+def _report_all(report, messages, kind='WARNING'):
+    seen = []
+    for m in messages:
+        if m and m not in seen:
+            seen.append(m)
+    for m in seen[:MAX_REPORTS]:
+        report({kind}, m)
+    if len(seen) > MAX_REPORTS:
+        report({kind}, f"... and {len(seen) - MAX_REPORTS} more (see the console)")
+        for m in seen[MAX_REPORTS:]:
+            print("Radiosity:", m)
+    return seen
+
+
+def _frames(scene, animation):
+    if not animation:
+        return [scene.frame_current]
+    return list(range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step)))
+
+
+def prepare_frame(context, frame, animation):
+    """BakeJob for one frame (main thread). Raises bake.BakeError."""
+    scene = context.scene
+    if animation and scene.frame_current != frame:
+        scene.frame_set(frame)
+    return bake.BakeJob(scene, context.evaluated_depsgraph_get(), scene.radiosity)
+
+
+def bake_frames(context, frames, animation, progress=None):
+    """Synchronous bake. progress(fraction, residual) -> False cancels.
+    Returns (jobs, {frame: colours}) with colours None when cancelled. Raises bake.BakeError."""
+    jobs, results = [], {}
+    scene = context.scene
+    start_frame = scene.frame_current
+    n = len(frames)
+    try:
+        for i, f in enumerate(frames):
+            job = prepare_frame(context, f, animation)
+            jobs.append(job)
+
+            def overall(fraction, residual, i=i):
+                return True if progress is None else progress((i + fraction) / n, residual)
+            job.solve(overall)
+            if not job.succeeded:
+                return jobs, None
+            results[f] = job.colours()
+    finally:
+        if animation and scene.frame_current != start_frame:
+            scene.frame_set(start_frame)
+    return jobs, results
+
+
+def finish(context, jobs, results, animation, report):
+    """Write the colours (current frame), fill the cache and scene.radiosity's results."""
+    scene = context.scene
+    props = scene.radiosity
+    frame = scene.frame_current
+    if animation:
+        frame_cache[scene.name] = results
+    else:
+        cache = frame_cache.get(scene.name)
+        if cache is not None:
+            cache[frame] = results[frame]
+    colours = results.get(frame)
+    if colours is None:                          # current frame outside the baked range
+        colours = results[min(results, key=lambda f: abs(f - frame))]
+    written, messages = writeback.write_all(colours, scene)
+    warnings = []
+    for j in jobs:
+        warnings += j.warnings
+    warnings += messages
+    last = jobs[-1]
+    st = last.stats
+    props.last_seconds = sum(j.seconds for j in jobs)
+    props.last_residual = float(max(j.stats["residual"] for j in jobs))
+    props.last_patches = int(st.get("patches", 0))
+    props.last_points = int(st.get("points", 0))
+    props.last_shots = int(st.get("shots", 0))
+    props.last_rays = float(sum(j.stats.get("rays", 0) for j in jobs))
+    props.last_effects = last.effects
+    props.last_frames = len(jobs)
+    props.has_results = True
+    if not all(j.stats.get("converged", True) for j in jobs):
+        warnings.append("the solve stopped before reaching the threshold (see Residual)")
+    shown = _report_all(report, warnings)
+    props.last_warnings = "\n".join(shown)
+    report({'INFO'}, f"Radiosity: baked {len(written)} object(s)"
+           + (f", {len(jobs)} frames" if animation else "") + f" in {props.last_seconds:.2f} s")
+    return written
+
+
+class _Bake:
+    bl_options = {'REGISTER', 'UNDO'}
+    animation = False
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None
+
+    def execute(self, context):
+        try:
+            jobs, results = bake_frames(context, _frames(context.scene, self.animation), self.animation)
+        except bake.BakeError as e:
+            self.report({'ERROR'}, f"Radiosity: {e}")
+            return {'CANCELLED'}
+        if results is None:
+            self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
+            return {'CANCELLED'}
+        finish(context, jobs, results, self.animation, self.report)
+        return {'FINISHED'}
+
+    # ---------------------------------------------------------------- modal
+    def invoke(self, context, event):
+        scene = context.scene
+        self._frames = _frames(scene, self.animation)
+        self._index = 0
+        self._jobs, self._results = [], {}
+        self._start_frame = scene.frame_current
+        self._job = None
+        self._thread = None
+        if not self._start(context):
+            return {'CANCELLED'}
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0.0, 1.0)
+        wm.modal_handler_add(self)
+        self._status(context, 0.0, 1.0)
+        return {'RUNNING_MODAL'}
+
+    def _start(self, context):
+        f = self._frames[self._index]
+        try:
+            self._job = prepare_frame(context, f, self.animation)
+        except bake.BakeError as e:
+            self.report({'ERROR'}, f"Radiosity: {e}")
+            self._restore_frame(context)
+            return False
+        self._jobs.append(self._job)
+        job = self._job
+
+        def run():
+            try:
+                job.solve()
+            except Exception:   # noqa: BLE001 -- kept in job.error, reported by modal()
+                pass
+        self._thread = threading.Thread(target=run, name="radiosity-solve", daemon=True)
+        self._thread.start()
+        return True
+
+    def _restore_frame(self, context):
+        if self.animation and context.scene.frame_current != self._start_frame:
+            context.scene.frame_set(self._start_frame)
+
+    def _status(self, context, fraction, residual):
+        n = len(self._frames)
+        text = (f"Radiosity: {100 * fraction:.0f}%  residual {residual:.2e}"
+                + (f"  frame {self._frames[self._index]} ({self._index + 1}/{n})" if self.animation else "")
+                + "  (Esc to cancel)")
+        if context.area is not None:
+            context.area.header_text_set(text)
+        if context.workspace is not None:
+            context.workspace.status_text_set(text)
+
+    def _cleanup(self, context):
+        wm = context.window_manager
+        if getattr(self, "_timer", None) is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        if context.area is not None:
+            context.area.header_text_set(None)
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == 'ESC' and event.value == 'PRESS':
+            job.cancel()
+            self._thread.join()
+            self._cleanup(context)
+            self._restore_frame(context)
+            self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
+            return {'CANCELLED'}
+        if event.type != 'TIMER':
+            return {'PASS_THROUGH'}
+        n = len(self._frames)
+        overall = (self._index + job.fraction) / n
+        context.window_manager.progress_update(overall)
+        self._status(context, overall, job.residual)
+        if self._thread.is_alive():
+            return {'PASS_THROUGH'}
+        self._thread.join()
+        if job.error is not None or not job.succeeded:
+            self._cleanup(context)
+            self._restore_frame(context)
+            if job.error is not None:
+                self.report({'ERROR'}, f"Radiosity: {job.error}")
+            else:
+                self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
+            return {'CANCELLED'}
+        self._results[self._frames[self._index]] = job.colours()
+        self._index += 1
+        if self._index < n:
+            if not self._start(context):
+                self._cleanup(context)
+                return {'CANCELLED'}
+            return {'PASS_THROUGH'}
+        self._cleanup(context)
+        self._restore_frame(context)
+        finish(context, self._jobs, self._results, self.animation, self.report)
+        return {'FINISHED'}
+
+    def cancel(self, context):          # Blender closes the window / file while running
+        if self._job is not None:
+            self._job.cancel()
+            self._thread.join()
+        self._cleanup(context)
+
+
+class RADIOSITY_OT_bake(_Bake, bpy.types.Operator):
+    """Compute diffuse global illumination of the whole scene into the 'Radiosity' colour attribute"""
+    bl_idname = "radiosity.bake"
+    bl_label = "Bake Radiosity"
+    animation = False
+
+
+class RADIOSITY_OT_bake_animation(_Bake, bpy.types.Operator):
+    """Bake every frame of the scene's frame range; changing frame shows that frame's lighting"""
+    bl_idname = "radiosity.bake_animation"
+    bl_label = "Bake Radiosity Animation"
+    animation = True
+
+
+class RADIOSITY_OT_clear(bpy.types.Operator):
+    """Remove the 'Radiosity' colour attribute from the scene's meshes"""
+    bl_idname = "radiosity.clear"
+    bl_label = "Clear Radiosity"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def execute(self, context):
+        scene = context.scene
+        frame_cache.pop(scene.name, None)
+        n = writeback.clear(scene.objects)
+        scene.radiosity.has_results = False
+        self.report({'INFO'}, f"Radiosity: cleared {n} mesh(es)")
+        return {'FINISHED'}
+
+
+# ----------------------------------------------------------------------------- handlers
+@persistent
+def on_frame_change(scene, depsgraph=None):
+    cache = frame_cache.get(scene.name)
+    if not cache:
+        return
+    colours = cache.get(scene.frame_current)
+    if colours is None:
+        return
+    try:
+        writeback.write_all(colours, scene)
+    except Exception as e:   # noqa: BLE001 -- never break playback
+        print("Radiosity: frame change write-back failed:", e)
+
+
+@persistent
+def on_load(*_args):
+    frame_cache.clear()
+
+
+HANDLERS = ((bpy.app.handlers.frame_change_post, on_frame_change),
+            (bpy.app.handlers.load_post, on_load))
+
+
+def register_handlers():
+    for lst, fn in HANDLERS:
+        for h in [h for h in lst if getattr(h, "__name__", "") == fn.__name__
+                  and getattr(h, "__module__", "") == fn.__module__]:
+            lst.remove(h)
+        lst.append(fn)
+
+
+def unregister_handlers():
+    for lst, fn in HANDLERS:
+        for h in [h for h in lst if getattr(h, "__name__", "") == fn.__name__
+                  and getattr(h, "__module__", "") == fn.__module__]:
+            lst.remove(h)
+    frame_cache.clear()
+
+
+classes = (RADIOSITY_OT_bake, RADIOSITY_OT_bake_animation, RADIOSITY_OT_clear)

@@ -1,0 +1,154 @@
+"""Render properties panel and 3D view sidebar panel (tab "Radiosity")."""
+import bpy
+
+from . import bake
+
+
+def _human(n):
+    n = float(n)
+    for unit in ("", "k", "M", "G", "T"):
+        if abs(n) < 1000:
+            return f"{n:.0f}{unit}" if unit == "" else f"{n:.1f}{unit}"
+        n /= 1000
+    return f"{n:.1f}P"
+
+
+def _seconds(s):
+    if s < 60:
+        return f"{s:.1f} s"
+    if s < 3600:
+        return f"{s / 60:.1f} min"
+    return f"{s / 3600:.1f} h"
+
+
+def draw_main(layout, context):
+    scene = context.scene
+    props = scene.radiosity
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    layout.prop(props, "preset")
+    try:
+        points, rays, secs = bake.estimate(props, scene)
+        col = layout.column(align=True)
+        col.label(text=f"Estimate: ~{_human(points)} vertices, ~{_human(rays)} rays", icon='INFO')
+        col.label(text=f"Estimate: ~{_seconds(secs)} a frame (rough)")
+    except Exception:   # noqa: BLE001 -- never break drawing
+        pass
+    col = layout.column(align=True)
+    col.operator("radiosity.bake", icon='LIGHT')
+    col.operator("radiosity.bake_animation", icon='RENDER_ANIMATION')
+    col.operator("radiosity.clear", icon='X')
+    layout.prop(props, "live_update")
+
+
+def draw_settings(layout, context):
+    props = context.scene.radiosity
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    col = layout.column(align=True)
+    col.prop(props, "samples_direct")
+    col.prop(props, "samples_indirect")
+    col = layout.column(align=True)
+    col.prop(props, "patch_size_relative")
+    col.prop(props, "threshold")
+    col.prop(props, "relaxation")
+
+
+def draw_results(layout, context):
+    props = context.scene.radiosity
+    if not props.has_results:
+        layout.label(text="No bake yet")
+        return
+    col = layout.column(align=True)
+    frames = f" ({props.last_frames} frames)" if props.last_frames > 1 else ""
+    col.label(text=f"Time: {_seconds(props.last_seconds)}{frames}")
+    col.label(text=f"Residual: {props.last_residual:.2e}")
+    col.label(text=f"Patches: {props.last_patches:,}   Vertices: {props.last_points:,}")
+    col.label(text=f"Rays: {_human(props.last_rays)}   Shots: {props.last_shots:,}")
+    box = layout.box()
+    box.label(text="Effects simulated:")
+    for part in _wrap(props.last_effects, 36):
+        box.label(text=part)
+    if props.last_warnings:
+        box = layout.box()
+        for w in props.last_warnings.split("\n")[:6]:
+            box.label(text=w, icon='ERROR')
+
+
+def _wrap(text, width):
+    lines, cur = [], ""
+    for word in text.split(", "):
+        nxt = f"{cur}, {word}" if cur else word
+        if len(nxt) > width and cur:
+            lines.append(cur + ",")
+            cur = word
+        else:
+            cur = nxt
+    if cur:
+        lines.append(cur)
+    return lines
+
+
+class _Render:
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "render"
+
+
+class _Sidebar:
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "Radiosity"
+
+
+class RADIOSITY_PT_render(_Render, bpy.types.Panel):
+    bl_label = "Radiosity"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        draw_main(self.layout, context)
+
+
+class RADIOSITY_PT_render_settings(_Render, bpy.types.Panel):
+    bl_label = "Settings"
+    bl_parent_id = "RADIOSITY_PT_render"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        draw_settings(self.layout, context)
+
+
+class RADIOSITY_PT_render_results(_Render, bpy.types.Panel):
+    bl_label = "Last Bake"
+    bl_parent_id = "RADIOSITY_PT_render"
+
+    def draw(self, context):
+        draw_results(self.layout, context)
+
+
+class RADIOSITY_PT_sidebar(_Sidebar, bpy.types.Panel):
+    bl_label = "Radiosity"
+
+    def draw(self, context):
+        draw_main(self.layout, context)
+
+
+class RADIOSITY_PT_sidebar_settings(_Sidebar, bpy.types.Panel):
+    bl_label = "Settings"
+    bl_parent_id = "RADIOSITY_PT_sidebar"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        draw_settings(self.layout, context)
+
+
+class RADIOSITY_PT_sidebar_results(_Sidebar, bpy.types.Panel):
+    bl_label = "Last Bake"
+    bl_parent_id = "RADIOSITY_PT_sidebar"
+
+    def draw(self, context):
+        draw_results(self.layout, context)
+
+
+classes = (RADIOSITY_PT_render, RADIOSITY_PT_render_settings, RADIOSITY_PT_render_results,
+           RADIOSITY_PT_sidebar, RADIOSITY_PT_sidebar_settings, RADIOSITY_PT_sidebar_results)

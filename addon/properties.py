@@ -1,0 +1,84 @@
+"""scene.radiosity: quality preset, the knobs behind it, live_update, and the last bake's results."""
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
+                       StringProperty)
+
+# Mirrors engine/src/settings.cpp (the engine stays the source of truth: _fill() asks it when it can).
+PRESET_VALUES = {
+    'DRAFT': dict(samples_direct=16, samples_indirect=4, patch_size_relative=1 / 16, threshold=1e-2,
+                  relaxation=1.3),
+    'DEFAULT': dict(samples_direct=64, samples_indirect=16, patch_size_relative=1 / 32, threshold=1e-3,
+                    relaxation=1.3),
+    'HIGH': dict(samples_direct=256, samples_indirect=64, patch_size_relative=1 / 64, threshold=2e-4,
+                 relaxation=1.3),
+    'REFERENCE': dict(samples_direct=1024, samples_indirect=256, patch_size_relative=1 / 128,
+                      threshold=1e-5, relaxation=1.3),
+}
+KNOBS = ("samples_direct", "samples_indirect", "patch_size_relative", "threshold", "relaxation")
+
+
+def preset_values(name):
+    """Knob values of a preset, from the engine when available."""
+    try:
+        from .bake import load_engine
+        s = load_engine().Settings.preset(name.lower())
+        return {k: getattr(s, k) for k in KNOBS}
+    except Exception:   # noqa: BLE001 -- fall back to the mirrored table
+        return dict(PRESET_VALUES[name])
+
+
+def _fill(self, _context):
+    for k, v in preset_values(self.preset).items():
+        setattr(self, k, v)
+
+
+class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
+    preset: EnumProperty(
+        name="Quality",
+        items=[('DRAFT', "Draft", "Fast preview: coarse patches, few samples"),
+               ('DEFAULT', "Default", "Balanced quality and time"),
+               ('HIGH', "High", "Fine patches, many samples"),
+               ('REFERENCE', "Reference", "Very slow; for comparisons")],
+        default='DEFAULT', update=_fill,
+        description="Quality preset; choosing one fills the settings below")
+    samples_direct: IntProperty(
+        name="Direct Samples", default=64, min=1, soft_max=4096,
+        description="Visibility rays per patch for light from lamps and emitters")
+    samples_indirect: IntProperty(
+        name="Indirect Samples", default=16, min=1, soft_max=1024,
+        description="Visibility rays per patch for each shot of reflected light")
+    patch_size_relative: FloatProperty(
+        name="Patch Size", default=1 / 32, min=1e-4, max=1.0, precision=4, step=0.1,
+        description="Patch size as a fraction of the scene's diagonal (smaller = finer shadows)")
+    threshold: FloatProperty(
+        name="Threshold", default=1e-3, min=1e-8, max=1.0, precision=5, step=0.01,
+        description="Stop when the unshot light falls below this fraction of the emitted light")
+    relaxation: FloatProperty(
+        name="Relaxation", default=1.3, min=1.0, max=1.95, precision=2,
+        description="Over-relaxation of reflected light shots (1 = plain progressive refinement)")
+    live_update: BoolProperty(
+        name="Live Update", default=False,
+        description="Update the lighting on frame change and while editing")
+
+    # results of the last bake (written by the operators)
+    last_seconds: FloatProperty(name="Time", default=0.0, precision=2, unit='TIME_ABSOLUTE')
+    last_residual: FloatProperty(name="Residual", default=0.0, precision=6)
+    last_patches: IntProperty(name="Patches", default=0)
+    last_points: IntProperty(name="Vertices", default=0)
+    last_rays: FloatProperty(name="Rays", default=0.0, precision=0)   # may exceed 2^31
+    last_shots: IntProperty(name="Shots", default=0)
+    last_effects: StringProperty(name="Effects", default="")
+    last_frames: IntProperty(name="Frames", default=0)
+    last_warnings: StringProperty(name="Warnings", default="")
+    has_results: BoolProperty(default=False)
+
+
+classes = (RADIOSITY_PG_settings,)
+
+
+def register_props():
+    bpy.types.Scene.radiosity = PointerProperty(type=RADIOSITY_PG_settings)
+
+
+def unregister_props():
+    del bpy.types.Scene.radiosity

@@ -1,0 +1,284 @@
+"""The add-on package: registration, operators, write-back, cancel, error reports.
+
+The package is loaded from the source tree (addon/) as `dynamic_radiosity`; the engine comes from
+build/engine (the add-on's fallback when it is not installed next to it).
+"""
+import os
+import threading
+
+import bpy
+import numpy as np
+import pytest
+
+from conftest import ROOT, SAMPLES
+
+ENGINE_DIR = os.path.join(ROOT, "build", "engine")
+if not os.path.isdir(ENGINE_DIR) or not any(f.startswith("radiosity_engine") for f in os.listdir(ENGINE_DIR)):
+    pytest.skip("engine module not built", allow_module_level=True)
+
+
+def open_blend(name, frame=None, preset='DRAFT'):
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, name + ".blend"))
+    scene = bpy.context.scene
+    if frame is not None:
+        scene.frame_set(frame)
+    scene.radiosity.preset = preset
+    return scene
+
+
+def colours(ob):
+    a = ob.data.color_attributes.get("Radiosity")
+    if a is None:
+        return None
+    v = np.empty(len(a.data) * 4, np.float32)
+    a.data.foreach_get("color", v)
+    return v.reshape(-1, 4)
+
+
+def meshes(scene):
+    return [ob for ob in scene.objects if ob.type == 'MESH' and not ob.hide_render]
+
+
+def empty_with_plane(light=True, world=(0, 0, 0)):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    me = bpy.data.meshes.new("Plane")
+    me.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    ob = bpy.data.objects.new("Plane", me)
+    scene.collection.objects.link(ob)
+    if light:
+        ld = bpy.data.lights.new("Lamp", 'POINT')
+        ld.energy = 100.0
+        lo = bpy.data.objects.new("Lamp", ld)
+        lo.location = (0, 0, 2)
+        scene.collection.objects.link(lo)
+    if world is not None:
+        w = bpy.data.worlds.new("World")
+        w.color = world
+        scene.world = w
+    scene.radiosity.preset = 'DRAFT'
+    bpy.context.view_layer.objects.active = ob
+    return scene, ob
+
+
+# ----------------------------------------------------------------------------- registration
+def test_register_round_trip(addon):
+    assert hasattr(bpy.types.Scene, "radiosity")
+    assert hasattr(bpy.ops.radiosity, "bake")
+    addon.unregister()
+    assert not hasattr(bpy.types.Scene, "radiosity")
+    assert not any(getattr(h, "__name__", "") == "on_frame_change" for h in bpy.app.handlers.frame_change_post)
+    addon.register()
+    addon.register.__globals__["operators"].register_handlers()     # idempotent
+    assert sum(getattr(h, "__name__", "") == "on_frame_change" for h in bpy.app.handlers.frame_change_post) == 1
+    assert addon.bl_info["category"] == "Lighting" and addon.bl_info["blender"][:2] == (3, 4)
+    assert bpy.context.scene.radiosity.preset == 'DEFAULT'
+
+
+def test_preset_fills_knobs(addon):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    p = bpy.context.scene.radiosity
+    eng = addon.bake.load_engine()
+    for name in ('DRAFT', 'HIGH', 'DEFAULT'):
+        p.preset = name
+        s = eng.Settings.preset(name.lower())
+        assert p.samples_direct == s.samples_direct and p.samples_indirect == s.samples_indirect
+        assert p.patch_size_relative == pytest.approx(s.patch_size_relative, rel=1e-6)
+        assert p.threshold == pytest.approx(s.threshold, rel=1e-6)
+    p.samples_direct = 7
+    assert addon.bake.engine_settings(p).samples_direct == 7
+    p.live_update = True
+
+
+# ----------------------------------------------------------------------------- sample bakes
+@pytest.mark.parametrize("name,frame", [("cornell_box", None), ("subsurf_room", None), ("animated_room", 12)])
+def test_bake_sample(addon, name, frame):
+    scene = open_blend(name, frame)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    obs = meshes(scene)
+    assert obs
+    for ob in obs:
+        a = ob.data.color_attributes.get("Radiosity")
+        assert a is not None, ob.name
+        assert a.data_type == 'FLOAT_COLOR' and a.domain == 'CORNER'
+        v = colours(ob)
+        assert v.shape == (len(ob.data.loops), 4)
+        assert np.isfinite(v).all() and (v[:, :3] >= 0).all()
+        assert (v[:, 3] == 1).all()
+        assert v[:, :3].max() > 1e-3, ob.name
+        assert v[:, :3].std() > 0 or ob.name == "Light", ob.name
+    p = scene.radiosity
+    assert p.has_results and p.last_seconds > 0 and p.last_patches > 0 and p.last_points > 0
+    assert p.last_rays > 0 and "emission" in p.last_effects or "lamps" in p.last_effects
+    if name == "subsurf_room":
+        assert "Catmull-Clark" in p.last_effects
+    assert bpy.ops.radiosity.clear() == {'FINISHED'}
+    assert all(ob.data.color_attributes.get("Radiosity") is None for ob in obs)
+
+
+def test_bake_animation_caches_frames(addon):
+    scene = open_blend("animated_room", 1)
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23     # frames 1 and 24
+    assert bpy.ops.radiosity.bake_animation() == {'FINISHED'}
+    assert scene.frame_current == 1 and scene.radiosity.last_frames == 2
+    cache = addon.operators.frame_cache[scene.name]
+    assert sorted(cache) == [1, 24]
+    obs = meshes(scene)
+    first = {ob.name: colours(ob).copy() for ob in obs}
+    for ob in obs:
+        np.testing.assert_array_equal(first[ob.name], cache[1][ob.name])
+    scene.frame_set(24)
+    later = {ob.name: colours(ob).copy() for ob in obs}
+    assert any(not np.array_equal(first[k], later[k]) for k in first)
+    for ob in obs:
+        np.testing.assert_array_equal(later[ob.name], cache[24][ob.name])
+    scene.frame_set(12)                                  # not baked: colours stay
+    for ob in obs:
+        np.testing.assert_array_equal(colours(ob), later[ob.name])
+    scene.frame_set(1)
+    for ob in obs:
+        np.testing.assert_array_equal(colours(ob), first[ob.name])
+    bpy.ops.radiosity.clear()
+    assert scene.name not in addon.operators.frame_cache
+
+
+# ----------------------------------------------------------------------------- cancel
+def test_cancel_keeps_previous_colours(addon):
+    scene, ob = empty_with_plane()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    before = colours(ob).copy()
+    ob.location.z = -1.0                     # the lighting would change
+    calls = []
+
+    def cancel_at_once(fraction, residual):
+        calls.append(fraction)
+        return False
+    jobs, results = addon.operators.bake_frames(bpy.context, [scene.frame_current], False, cancel_at_once)
+    assert results is None and calls          # cancelled (the engine may have finished anyway)
+    np.testing.assert_array_equal(colours(ob), before)
+
+
+def test_cancel_from_another_thread(addon):
+    scene = open_blend("cornell_box", preset='HIGH')
+    room = scene.objects["Room"]
+    rgba = np.full((len(room.data.loops), 4), 0.25, np.float32)
+    addon.writeback.write_mesh(room.data, rgba)
+    job = addon.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
+    started = threading.Event()
+
+    def progress(fraction, residual):
+        started.set()
+        return True
+    t = threading.Thread(target=lambda: job.solve(progress))
+    t.start()
+    assert started.wait(60)
+    job.cancel()
+    t.join(60)
+    assert not t.is_alive() and job.done and not job.succeeded
+    np.testing.assert_array_equal(colours(room), rgba)
+
+
+# ----------------------------------------------------------------------------- bad scenes
+def test_nan_vertex_is_reported(addon):
+    scene, ob = empty_with_plane()
+    ob.data.vertices[2].co = (float("nan"), 1.0, 0.0)
+    with pytest.raises(RuntimeError, match="Plane"):
+        bpy.ops.radiosity.bake()
+    assert ob.data.color_attributes.get("Radiosity") is None
+
+
+def test_no_lights_is_reported(addon):
+    scene, ob = empty_with_plane(light=False)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    assert "no light" in scene.radiosity.last_warnings
+    assert np.all(colours(ob)[:, :3] == 0)
+
+
+def test_empty_scene_is_reported(addon):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with pytest.raises(RuntimeError, match="nothing to bake"):
+        bpy.ops.radiosity.bake()
+
+
+def test_edit_mode_is_reported(addon):
+    scene, ob = empty_with_plane()
+    ob.select_set(True)
+    bpy.ops.object.mode_set(mode='EDIT')
+    try:
+        assert ob.mode == 'EDIT'
+        with pytest.raises(RuntimeError, match="Edit Mode"):
+            bpy.ops.radiosity.bake()
+    finally:
+        bpy.ops.object.mode_set(mode='OBJECT')
+    assert ob.data.color_attributes.get("Radiosity") is None
+
+
+def test_degenerate_face_warns(addon):
+    scene, ob = empty_with_plane()
+    me = bpy.data.meshes.new("Sliver")
+    me.from_pydata([(0, 0, 0.5), (0.5, 0, 0.5), (1.0, 0, 0.5)], [], [(0, 1, 2)])
+    o2 = bpy.data.objects.new("Sliver", me)
+    scene.collection.objects.link(o2)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    assert "degenerate" in scene.radiosity.last_warnings
+    assert np.isfinite(colours(ob)).all()
+
+
+def test_render_hidden_skipped_and_linked_not_written(addon, tmp_path):
+    scene, ob = empty_with_plane()
+    lib = str(tmp_path / "lib.blend")
+    bpy.data.libraries.write(lib, {ob.data})
+    ob2 = ob.copy()
+    ob2.data = ob.data.copy()
+    ob2.location.z = 0.5
+    ob2.hide_render = True
+    scene.collection.objects.link(ob2)
+    with bpy.data.libraries.load(lib, link=True) as (src, dst):
+        dst.meshes = ["Plane"]
+    linked = dst.meshes[0]
+    assert linked.library is not None
+    ob3 = bpy.data.objects.new("LinkedPlane", linked)
+    ob3.location = (0, 0, -0.5)
+    scene.collection.objects.link(ob3)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    assert ob.data.color_attributes.get("Radiosity") is not None
+    assert ob2.data.color_attributes.get("Radiosity") is None
+    assert linked.color_attributes.get("Radiosity") is None
+    assert "linked library" in scene.radiosity.last_warnings
+
+
+def test_estimate_is_in_the_right_range(addon):
+    scene = open_blend("cornell_box")                  # draft measured: 1,871 points, 3.9 M rays
+    points, rays, secs = addon.bake.estimate(scene.radiosity, scene)
+    assert 1871 / 2 < points < 1871 * 2 and 3.9e6 / 3 < rays < 3.9e6 * 3 and secs > 0
+    scene.radiosity.preset = 'DEFAULT'                 # measured: 6,863 points, 87 M rays
+    points, rays, secs2 = addon.bake.estimate(scene.radiosity, scene)
+    assert 6863 / 2 < points < 6863 * 2 and 87e6 / 3 < rays < 87e6 * 3 and secs2 > secs
+
+
+class _FakeLayout:
+    """Accepts any layout call: enough to run the panels' draw code in background mode."""
+    def __init__(self):
+        self.labels = []
+
+    def label(self, text="", **_kw):
+        self.labels.append(text)
+
+    def __getattr__(self, _name):
+        return lambda *a, **k: self
+
+    def __setattr__(self, name, value):
+        object.__setattr__(self, name, value)
+
+
+def test_panels_draw(addon):
+    scene = open_blend("cornell_box")
+    lay = _FakeLayout()
+    addon.panels.draw_main(lay, bpy.context)
+    addon.panels.draw_settings(lay, bpy.context)
+    addon.panels.draw_results(lay, bpy.context)
+    assert any(t.startswith("Estimate") for t in lay.labels) and "No bake yet" in lay.labels
+    scene.radiosity.has_results = True
+    scene.radiosity.last_effects = "point lamps, area lamps, world, emission, Catmull-Clark objects"
+    addon.panels.draw_results(lay, bpy.context)
+    assert any(t.startswith("Residual") for t in lay.labels)

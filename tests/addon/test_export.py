@@ -1,0 +1,216 @@
+"""Export (depsgraph -> numpy arrays) checked on the sample scenes and small synthetic scenes."""
+import math
+import time
+
+import bpy
+import numpy as np
+import pytest
+
+PI = math.pi
+
+
+def rgb(a):
+    return np.asarray(a, np.float64)
+
+
+def check_mesh_arrays(m):
+    assert m.positions.dtype == np.float64 and m.positions.ndim == 2 and m.positions.shape[1] == 3
+    assert m.face_sizes.dtype == np.int32 and m.face_vertices.dtype == np.int32
+    assert m.face_materials.dtype == np.int32
+    assert m.face_sizes.sum() == len(m.face_vertices)
+    assert len(m.face_materials) == len(m.face_sizes)
+    assert m.face_vertices.min() >= 0 and m.face_vertices.max() < len(m.positions)
+    assert m.transform.shape == (4, 4) and m.transform.dtype == np.float64
+
+
+# ----------------------------------------------------------------------------- sample scenes
+def test_cornell(export, open_sample):
+    open_sample("cornell_box")
+    s = export.export_scene()
+    names = sorted(m.name for m in s.meshes)
+    assert names == ["Ceiling", "Light", "Room", "ShortBox", "TallBox"]
+    for m in s.meshes:
+        check_mesh_arrays(m)
+        assert m.refine == "bilinear" and m.level == 0 and m.loop_indices is None and m.matches_original
+    mats = {m.name: m for m in s.materials}
+    assert set(mats) == {"White", "Red", "Green", "LightEmission"}
+    np.testing.assert_allclose(mats["White"].reflectance, (0.725, 0.71, 0.68), rtol=1e-6)
+    np.testing.assert_allclose(mats["White"].emission, (0, 0, 0))
+    np.testing.assert_allclose(mats["Red"].reflectance, (0.63, 0.065, 0.05), rtol=1e-6)
+    np.testing.assert_allclose(mats["LightEmission"].emission, (50.0, 42.5, 35.0), rtol=1e-6)
+    np.testing.assert_allclose(mats["LightEmission"].reflectance, (0, 0, 0))
+    room = s.mesh("Room")
+    assert room.positions.shape == (8, 3) and list(room.face_sizes) == [4, 4, 4, 4]
+    order = [s.materials[i].name for i in room.face_materials]
+    assert order == ["White", "White", "Red", "Green"]
+    # face normals of the room point inwards (towards the box centre)
+    p = room.positions[room.face_vertices.reshape(-1, 4)]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    assert (((np.array([0, 0, 2.75]) - p.mean(1)) * n).sum(1) > 0).all()
+    tall = s.mesh("TallBox")
+    np.testing.assert_allclose(tall.transform[:3, 3], (-0.95, 0.75, 0.0), atol=1e-6)
+    np.testing.assert_allclose(tall.transform[:3, :3],
+                               [[math.cos(math.radians(17)), -math.sin(math.radians(17)), 0],
+                                [math.sin(math.radians(17)), math.cos(math.radians(17)), 0], [0, 0, 1]], atol=1e-6)
+    assert tall.positions[:, 2].max() == pytest.approx(3.3)
+    assert s.lights == []
+    np.testing.assert_allclose(s.world, (0, 0, 0))
+    light = s.mesh("Light")
+    assert s.materials[light.face_materials[0]].name == "LightEmission"
+
+
+def test_subsurf_room(export, open_sample):
+    open_sample("subsurf_room")
+    s = export.export_scene()
+    blob = s.mesh("Blob")
+    check_mesh_arrays(blob)
+    assert blob.refine == "catmull_clark" and blob.level == 2
+    assert blob.positions.shape == (8, 3), "the cage, not the subdivided mesh, is exported"
+    assert np.abs(blob.positions).max() == pytest.approx(0.5)
+    assert blob.matches_original
+    room = s.mesh("Room")
+    assert room.refine == "bilinear" and room.level == 0 and len(room.face_sizes) == 6
+    pl = s.light("PointLamp")
+    assert pl.kind == "point"
+    np.testing.assert_allclose(pl.position, (-1.2, 1.0, 1.9), atol=1e-6)
+    np.testing.assert_allclose(pl.intensity, rgb((1.0, 0.9, 0.8)) * 40.0 / (4 * PI), rtol=1e-6)
+    assert pl.radius == pytest.approx(0.1)
+    al = s.light("AreaLamp")
+    assert al.kind == "area" and al.shape == "rect"
+    assert al.area == pytest.approx(0.6)
+    np.testing.assert_allclose(al.radiance, rgb((0.8, 0.9, 1.0)) * 40.0 / (4 * 0.6), rtol=1e-6)
+    np.testing.assert_allclose(al.u_half_axis, (0.5, 0, 0), atol=1e-7)
+    np.testing.assert_allclose(al.v_half_axis, (0, 0.3, 0), atol=1e-7)
+    np.testing.assert_allclose(al.direction, (0, 0, -1), atol=1e-7)
+    np.testing.assert_allclose(al.position, (0.8, -0.8, 2.45), atol=1e-6)
+
+
+@pytest.mark.parametrize("frame", [1, 12, 24])
+def test_animated_room(export, open_sample, frame):
+    open_sample("animated_room", frame)
+    s = export.export_scene()
+    assert s.frame == frame
+    box = s.mesh("Box")
+    x = -1.5 + 3.0 * (frame - 1) / 23.0
+    np.testing.assert_allclose(box.transform[:3, 3], (x, 0.3, 0.0), atol=1e-5)
+    assert box.animated and not s.mesh("Room").animated
+    lamp = s.light("Lamp")
+    P = 30.0 + 90.0 * (frame - 1) / 23.0
+    np.testing.assert_allclose(lamp.intensity, np.full(3, P / (4 * PI)), rtol=1e-5)
+
+
+# ----------------------------------------------------------------------------- synthetic scenes
+@pytest.fixture
+def empty_scene():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy.context.scene
+
+
+def add_lamp(kind, **props):
+    ld = bpy.data.lights.new(kind, kind)
+    rot = props.pop("rotation", (0, 0, 0))
+    loc = props.pop("location", (0, 0, 0))
+    scale = props.pop("scale", (1, 1, 1))
+    for k, v in props.items():
+        setattr(ld, k, v)
+    ob = bpy.data.objects.new(kind, ld)
+    ob.location, ob.rotation_euler, ob.scale = loc, rot, scale
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def test_lamp_conversions(export, empty_scene):
+    add_lamp('SPOT', energy=100.0, color=(1.0, 0.5, 0.25), spot_size=math.radians(60), spot_blend=0.3,
+             shadow_soft_size=0.2, rotation=(math.radians(90), 0, 0), location=(1, 2, 3))
+    add_lamp('SUN', energy=3.0, color=(1, 1, 0.5), angle=0.01, rotation=(math.radians(30), 0, 0))
+    add_lamp('AREA', energy=100.0, shape='DISK', size=2.0, scale=(2.0, 1.0, 1.0), location=(0, 0, 4))
+    s = export.export_scene()
+    sp = s.light("SPOT")
+    np.testing.assert_allclose(sp.intensity, rgb((1, 0.5, 0.25)) * 100 / (4 * PI), rtol=1e-6)
+    assert sp.spot_size == pytest.approx(math.radians(60)) and sp.spot_blend == pytest.approx(0.3)
+    np.testing.assert_allclose(sp.direction, (0, 1, 0), atol=1e-6)     # -Z rotated 90 deg about X
+    np.testing.assert_allclose(sp.position, (1, 2, 3), atol=1e-6)
+    sun = s.light("SUN")
+    np.testing.assert_allclose(sun.irradiance, (3, 3, 1.5), rtol=1e-6)
+    np.testing.assert_allclose(sun.direction, (0, math.sin(math.radians(30)), -math.cos(math.radians(30))), atol=1e-6)
+    assert sun.angle == pytest.approx(0.01)
+    ar = s.light("AREA")
+    assert ar.shape == "disc" and ar.area == pytest.approx(PI * 2.0 * 1.0)
+    assert any("elliptic" in w for w in s.warnings)
+    u, v = ar.u_half_axis, ar.v_half_axis
+    np.testing.assert_allclose(-np.cross(u, v) / np.linalg.norm(np.cross(u, v)), ar.direction, atol=1e-9)
+    np.testing.assert_allclose(ar.radiance, np.full(3, 100.0 / (4 * PI * 2.0)), rtol=1e-6)
+
+
+@pytest.mark.parametrize("scale", [(1, 1, 1), (-1, 1, 1), (1, 1, -1)])
+def test_area_lamp_direction_mirrored(export, empty_scene, scale):
+    # Measured in Cycles 3.4.1: the lamp emits along -(matrix Z column): scale (1,1,-1) emits up.
+    add_lamp('AREA', energy=10.0, shape='SQUARE', size=1.0, scale=scale)
+    ar = export.export_scene().light("AREA")
+    want = np.array([0, 0, -1.0]) * np.sign(scale[2])
+    np.testing.assert_allclose(ar.direction, want, atol=1e-12)
+    c = -np.cross(ar.u_half_axis, ar.v_half_axis)
+    np.testing.assert_allclose(c / np.linalg.norm(c), want, atol=1e-12)
+
+
+def test_world_and_materials(export, empty_scene):
+    w = bpy.data.worlds.new("W")
+    w.use_nodes = True
+    bg = w.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (0.5, 0.25, 1.0, 1)
+    bg.inputs["Strength"].default_value = 2.0
+    bpy.context.scene.world = w
+    bpy.ops.mesh.primitive_plane_add()
+    ob = bpy.context.object
+    p = bpy.data.materials.new("P")
+    p.use_nodes = True                                 # default Principled BSDF
+    pr = p.node_tree.nodes["Principled BSDF"]
+    pr.inputs["Base Color"].default_value = (0.2, 0.4, 0.6, 1)
+    pr.inputs["Emission"].default_value = (1, 1, 1, 1)
+    pr.inputs["Emission Strength"].default_value = 0.5
+    ob.data.materials.append(p)
+    ob.data.materials.append(None)                     # empty slot -> default grey
+    ob.data.polygons[0].material_index = 1
+    s = export.export_scene()
+    np.testing.assert_allclose(s.world, (1.0, 0.5, 2.0), rtol=1e-6)
+    m = s.mesh("Plane")
+    mat = s.materials[m.face_materials[0]]
+    assert mat.name == "<default>" and mat.reflectance == pytest.approx((0.8, 0.8, 0.8))
+    pm = s.materials[s.material_index("P")]
+    assert pm.reflectance == pytest.approx((0.2, 0.4, 0.6)) and pm.emission == pytest.approx((0.5, 0.5, 0.5))
+
+
+def test_subsurf_after_other_modifier_sends_cage(export, empty_scene):
+    bpy.ops.mesh.primitive_cube_add()
+    ob = bpy.context.object
+    ob.modifiers.new("Mirror", 'MIRROR')
+    sub = ob.modifiers.new("Sub", 'SUBSURF')
+    sub.levels, sub.render_levels = 1, 3
+    s = export.export_scene()
+    m = s.mesh("Cube")
+    assert m.refine == "catmull_clark" and m.level == 3
+    assert len(m.face_sizes) == 12      # mirrored cube cage (not merged: mirror across x = 0 of a centred cube)
+    assert sub.show_viewport, "modifier state restored"
+    # with the subdivision last but disabled for render, nothing is refined
+    sub.show_render = False
+    m = export.export_scene().mesh("Cube")
+    assert m.refine == "bilinear" and m.level == 0
+
+
+def test_large_mesh_is_vectorised(export, empty_scene):
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=400, y_subdivisions=400)
+    t = time.perf_counter()
+    s = export.export_scene()
+    dt = time.perf_counter() - t
+    m = s.mesh("Grid")
+    check_mesh_arrays(m)
+    assert len(m.positions) == len(bpy.data.objects["Grid"].data.vertices) > 150_000
+    assert dt < 2.0, f"export took {dt:.2f} s for 160k vertices"
+
+
+def test_hidden_from_render_is_skipped(export, empty_scene):
+    bpy.ops.mesh.primitive_plane_add()
+    bpy.context.object.hide_render = True
+    add_lamp('POINT', energy=10.0).hide_render = True
+    s = export.export_scene()
+    assert s.meshes == [] and s.lights == []
