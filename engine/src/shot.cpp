@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <unordered_map>
 
 namespace radiosity {
 
@@ -13,20 +15,31 @@ bool is_zero(const dvec3& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
 
 // Copies a shooter's subtree into a shot. Radiance is interpolated or averaged only over what the
 // sample point sees: a patch or cluster running under a wall would otherwise carry light from the
-// lit room into the dark one.
+// lit room into the dark one. What a sample sees of its own shooter does not change while the
+// geometry does not, so it is worked out once per side and kept in the cache.
 struct ShotBuilder {
   const PatchMesh& mesh;
   const ClusterTree& tree;
   const Visibility* vis;
+  ShotCache* cache;
   const std::vector<CornerUnshot>& unshot;
   double scale;
   int cells_per_side;
   Shot& shot;
 
-  dvec3 side_normal(const dvec3& n, int side) const { return side == 0 ? n : -n; }
-
   bool sees(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, int side) const {
-    return !vis || vis->connected(a, side_normal(na, side), b, side_normal(nb, side));
+    return !vis || (side == 0 ? vis->connected(a, na, b, nb) : vis->connected(a, -na, b, -nb));
+  }
+
+  // The cached entry under `key`, made by `make` (which fills one byte per item) on first use.
+  template <class Make>
+  const std::vector<uint8_t>& cached(std::unordered_map<long long, std::vector<uint8_t>>& map, long long key,
+                                     Make&& make) {
+    auto it = map.find(key);
+    if (it != map.end()) return it->second;
+    std::vector<uint8_t>& entry = map[key];
+    make(entry);
+    return entry;
   }
 
   int copy(int node) {
@@ -44,27 +57,36 @@ struct ShotBuilder {
     } else {
       e.left = copy(n.left);
       e.right = copy(n.right);
-      if (e.flat) average_visible(n, e);  // only flat clusters ever stand for their patches
+      if (e.flat) average_visible(node, e);  // only flat clusters ever stand for their patches
     }
     shot.elements[id] = e;
     return id;
   }
 
-  void average_visible(const ClusterNode& n, ShotElement& e) {
+  void average_visible(int node, ShotElement& e) {
+    const ClusterNode& n = tree.nodes[node];
     const Patch& anchor = mesh.patches[n.anchor];
     e.anchor = anchor.centre;
     for (int side = 0; side < 2; ++side) {
+      auto mean_unshot = [&](int patch) {
+        const CornerUnshot& u = unshot[patch];
+        return 0.25 * (u[side] + u[2 + side] + u[4 + side] + u[6 + side]);
+      };
+      bool any = false;
+      for (int i = n.begin; i < n.end && !any; ++i) any = !is_zero(mean_unshot(tree.order[i]));
+      if (!any) continue;
+      const std::vector<uint8_t>& seen = cached(cache->member, 2LL * node + side, [&](std::vector<uint8_t>& out) {
+            for (int i = n.begin; i < n.end; ++i) {
+              const Patch& p = mesh.patches[tree.order[i]];
+              out.push_back(&p == &anchor || sees(anchor.centre, anchor.normal, p.centre, p.normal, side));
+            }
+          });
       dvec3 power(0.0);
       double area = 0.0;
       for (int i = n.begin; i < n.end; ++i) {
         const Patch& p = mesh.patches[tree.order[i]];
-        dvec3 mean = 0.25 * (unshot[tree.order[i]][side] + unshot[tree.order[i]][2 + side] +
-                             unshot[tree.order[i]][4 + side] + unshot[tree.order[i]][6 + side]);
-        if (p.area == 0 || is_zero(mean)) {
-          area += p.area;
-          continue;
-        }
-        if (&p == &anchor || sees(anchor.centre, anchor.normal, p.centre, p.normal, side)) {
+        dvec3 mean = mean_unshot(tree.order[i]);
+        if (is_zero(mean) || seen[i - n.begin]) {
           power += p.area * mean;
           area += p.area;
         }
@@ -82,6 +104,22 @@ struct ShotBuilder {
       for (int c = 0; c < 4; ++c) corners[c] = mesh.vertices[patch.vertex[c]];
       std::vector<Cell> cells(k * k);
       bilinear_cells(corners, k, cells.data());
+      const std::vector<uint8_t>* seen[2] = {nullptr, nullptr};  // per cell, a bit per corner it sees
+      for (int s = 0; s < 2; ++s) {
+        bool any = false;
+        for (int c = 0; c < 4; ++c) any |= !is_zero(unshot[p][c * 2 + s]);
+        if (!any) continue;
+        seen[s] = &cached(cache->cell, (64LL * p + k) * 2 + s, [&](std::vector<uint8_t>& out) {
+          for (const Cell& cell : cells) {
+            uint8_t bits = 0;
+            for (int c = 0; c < 4; ++c) {
+              const ReceiverPoint& corner = mesh.points[patch.point[c]];
+              if (sees(cell.centre, cell.normal, corner.position, corner.normal, s)) bits |= 1 << c;
+            }
+            out.push_back(bits);
+          }
+        });
+      }
       for (int j = 0; j < k; ++j)
         for (int i = 0; i < k; ++i) {
           ShotCell sc;
@@ -90,14 +128,12 @@ struct ShotBuilder {
           double u = (i + 0.5) / k, v = (j + 0.5) / k;
           double weight[4] = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
           for (int s = 0; s < 2; ++s) {
+            uint8_t bits = seen[s] ? (*seen[s])[j * k + i] : 0;
             dvec3 sum(0.0);
             double total = 0.0;
             for (int c = 0; c < 4; ++c) {
               const dvec3& value = unshot[p][c * 2 + s];
-              const ReceiverPoint& corner = mesh.points[patch.point[c]];
-              if (!is_zero(value) &&
-                  !sees(sc.cell.centre, sc.cell.normal, corner.position, corner.normal, s))
-                continue;
+              if (!is_zero(value) && !(bits & (1 << c))) continue;
               sum += weight[c] * value;
               total += weight[c];
             }
@@ -110,11 +146,11 @@ struct ShotBuilder {
   }
 };
 
-
 }  // namespace
 
-Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, int node,
-                  const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor) {
+Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, ShotCache* cache,
+                  int node, const std::vector<CornerUnshot>& unshot, int samples, double scale,
+                  double near_factor) {
   // Frontier: split the widest cluster until there are `samples` of them or only patches remain.
   std::vector<int> frontier{node};
   for (;;) {
@@ -133,7 +169,8 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
 
   Shot shot;
   shot.near_factor = near_factor;
-  ShotBuilder builder{mesh, tree, vis, unshot, scale, cells_per_side, shot};
+  ShotCache local;  // without a cache to keep, work it out for this shot alone
+  ShotBuilder builder{mesh, tree, vis, cache ? cache : &local, unshot, scale, cells_per_side, shot};
   builder.copy(node);
   // Walk the subtree and its copy together to turn the frontier's clusters into elements.
   std::sort(frontier.begin(), frontier.end());

@@ -12,6 +12,8 @@
 #include "visibility.h"
 
 #include <array>
+#include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 namespace radiosity {
@@ -41,9 +43,17 @@ struct Shot {
   double near_factor = 3.0;
 };
 
+// What shot samples see of their own shooter, per side: cell centre to patch corners (a bit each),
+// cluster anchor to member patches. Valid while the geometry stays as it is.
+struct ShotCache {
+  std::unordered_map<long long, std::vector<uint8_t>> cell;    // (patch, cells per side, side)
+  std::unordered_map<long long, std::vector<uint8_t>> member;  // (cluster node, side)
+};
+
 // The shot of cluster `node`, sending `scale` times its patches' unshot radiance. With `vis`, a
 // sample's radiance comes only from the corners / patches it sees (no light leaks under walls).
-Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, int node,
+Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, ShotCache* cache,
+                  int node,
                   const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor);
 
 // Adds to the batch the rays carrying the shot's irradiance to receiving point `receiver`.

@@ -31,6 +31,7 @@ struct Solver::Impl {
   std::vector<int> shooters;       // cluster nodes
   std::vector<int> patch_shooter;  // patch -> index in shooters
   std::vector<char> emits;         // shooter holds emitting patches
+  ShotCache shot_cache;
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
   std::vector<CornerUnshot> unshot;    // per patch
@@ -140,7 +141,7 @@ struct Solver::Impl {
     for (size_t p = 0; p < mesh.patches.size(); ++p) emission[p].fill(material(int(p)).emission);
     for (size_t s = 0; s < shooters.size(); ++s)
       if (emits[s])
-        shots.push_back(cluster_shot(mesh, tree, vis.get(), shooters[s], emission, settings.samples_direct, 1.0,
+        shots.push_back(cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[s], emission, settings.samples_direct, 1.0,
                                      settings.near_factor));
     bool world = channel_sum(scene.world) > 0;
     bool complete = gather_all([&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
@@ -172,7 +173,7 @@ struct Solver::Impl {
 
   bool shoot(int s) {
     double omega = settings.relaxation;
-    Shot shot = cluster_shot(mesh, tree, vis.get(), shooters[s], unshot, settings.samples_indirect, omega,
+    Shot shot = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[s], unshot, settings.samples_indirect, omega,
                              settings.near_factor);
     if (!gather_all([&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(shot, i, p, batch); }))
       return false;
