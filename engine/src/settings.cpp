@@ -15,16 +15,14 @@ Settings Settings::preset(const std::string& name) {
     // the defaults above
   } else if (name == "high") {
     s.samples_direct = 256;
-    s.samples_indirect = 64;
+    s.samples_indirect = 32;
     s.patch_size_relative = 1.0 / 64.0;
-    s.shooter_size_relative = 1.0 / 12.0;
-    s.threshold = 2e-4;
+    s.threshold = 5e-4;
   } else if (name == "reference") {
     s.samples_direct = 1024;
-    s.samples_indirect = 256;
+    s.samples_indirect = 64;
     s.patch_size_relative = 1.0 / 128.0;
-    s.shooter_size_relative = 1.0 / 16.0;
-    s.threshold = 1e-5;
+    s.threshold = 1e-4;
   } else {
     throw std::invalid_argument("unknown quality preset '" + name +
                                 "' (draft, default, high, reference)");

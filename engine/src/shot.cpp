@@ -190,6 +190,29 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
   return shot;
 }
 
+namespace {
+
+// Disc approximation of a distant element (exact on the axis of a disc): the bare point kernel
+// A/(pi r^2) overshoots by (R/r)^2, some 10% at three radii, and that energy adds up over a solve.
+void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centre, const dvec3& target,
+                const dvec3& normal, double area, const dvec3 radiance[2], OcclusionBatch& batch) {
+  dvec3 d = centre - x;
+  double r2 = glm::dot(d, d);
+  double cos_s = glm::dot(normal, d);  // negative: receiver in front of the shooter
+  const dvec3& rad = radiance[cos_s <= 0 ? 0 : 1];
+  double cos_r = glm::dot(n, d);
+  if (is_zero(rad) || cos_r == 0) return;
+  dvec3 irradiance = rad * (std::fabs(cos_s * cos_r) / r2 * area / (kPi * r2 + area));
+  bool front = cos_r > 0;
+  batch.to_point(receiver, x, n, target, normal, front ? irradiance : dvec3(0.0), front ? dvec3(0.0) : irradiance);
+}
+
+// Beyond this many radii a cell's disc approximation differs from the exact factor by O((r/d)^4),
+// about 1e-6: a furnace at rho = 0.99 stays within its 0.1%. (At 8 radii it was 0.9% off.)
+constexpr double kExactCellRadii = 32.0;
+
+}  // namespace
+
 void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch) {
   const dvec3& x = point.position;
   const dvec3& n = point.normal;
@@ -202,27 +225,23 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
       if (e.left < 0) {
         for (int c = e.cell_begin; c < e.cell_end; ++c) {
           const ShotCell& sc = shot.cells[c];
-          const dvec3& rad = sc.radiance[glm::dot(sc.cell.normal, x - sc.cell.centre) >= 0 ? 0 : 1];
+          const Cell& cell = sc.cell;
+          dvec3 d = cell.centre - x;
+          if (glm::dot(d, d) > kExactCellRadii * kExactCellRadii * cell.radius * cell.radius) {
+            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, cell.area, sc.radiance, batch);
+            continue;
+          }
+          const dvec3& rad = sc.radiance[glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1];
           if (is_zero(rad)) continue;
-          SideFactors f = cell_form_factor(sc.cell, x, n);
+          SideFactors f = cell_form_factor(cell, x, n);
           if (f.front == 0 && f.back == 0) continue;
-          batch.to_point(receiver, x, n, sc.cell.centre, sc.cell.normal, rad * f.front, rad * f.back);
+          batch.to_point(receiver, x, n, cell.centre, cell.normal, rad * f.front, rad * f.back);
         }
         continue;
       }
       dvec3 d = e.centroid - x;
-      double r2 = glm::dot(d, d);
-      if (e.flat && r2 > shot.near_factor * shot.near_factor * e.radius * e.radius) {
-        double cos_s = glm::dot(e.normal, d);  // negative: receiver in front of the shooter
-        const dvec3& rad = e.radiance[cos_s <= 0 ? 0 : 1];
-        double cos_r = glm::dot(n, d);
-        if (is_zero(rad) || cos_r == 0) continue;
-        // Disc approximation (exact on the axis of a disc): the bare point kernel A/(pi r^2)
-        // overshoots by (R/r)^2, some 10% at the near limit, and that energy adds up over a solve.
-        dvec3 irradiance = rad * (std::fabs(cos_s * cos_r) / r2 * e.projected_area / (kPi * r2 + e.projected_area));
-        bool front = cos_r > 0;
-        batch.to_point(receiver, x, n, e.anchor, e.normal, front ? irradiance : dvec3(0.0),
-                       front ? dvec3(0.0) : irradiance);
+      if (e.flat && glm::dot(d, d) > shot.near_factor * shot.near_factor * e.radius * e.radius) {
+        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, e.projected_area, e.radiance, batch);
         continue;
       }
       stack[top++] = e.right;
