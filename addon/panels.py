@@ -101,54 +101,21 @@ class _Sidebar:
     bl_category = "Radiosity"
 
 
-class RADIOSITY_PT_render(_Render, bpy.types.Panel):
-    bl_label = "Radiosity"
-    bl_options = {'DEFAULT_CLOSED'}
+def _panels(place, name, closed):
+    """The Radiosity panel and its Settings and Last Bake sub-panels for one place in the UI: the
+    same three panels in Render properties and in the 3D view's sidebar."""
+    main = f"RADIOSITY_PT_{name}"
 
-    def draw(self, context):
-        draw_main(self.layout, context)
+    def panel(idname, label, draw, parent=None, options=()):
+        attrs = {"bl_idname": idname, "bl_label": label, "bl_options": set(options),
+                 "draw": lambda self, context: draw(self.layout, context)}
+        if parent:
+            attrs["bl_parent_id"] = parent
+        return type(idname, (place, bpy.types.Panel), attrs)
 
-
-class RADIOSITY_PT_render_settings(_Render, bpy.types.Panel):
-    bl_label = "Settings"
-    bl_parent_id = "RADIOSITY_PT_render"
-    bl_options = {'DEFAULT_CLOSED'}
-
-    def draw(self, context):
-        draw_settings(self.layout, context)
-
-
-class RADIOSITY_PT_render_results(_Render, bpy.types.Panel):
-    bl_label = "Last Bake"
-    bl_parent_id = "RADIOSITY_PT_render"
-
-    def draw(self, context):
-        draw_results(self.layout, context)
+    return (panel(main, "Radiosity", draw_main, options={'DEFAULT_CLOSED'} if closed else ()),
+            panel(main + "_settings", "Settings", draw_settings, main, {'DEFAULT_CLOSED'}),
+            panel(main + "_results", "Last Bake", draw_results, main))
 
 
-class RADIOSITY_PT_sidebar(_Sidebar, bpy.types.Panel):
-    bl_label = "Radiosity"
-
-    def draw(self, context):
-        draw_main(self.layout, context)
-
-
-class RADIOSITY_PT_sidebar_settings(_Sidebar, bpy.types.Panel):
-    bl_label = "Settings"
-    bl_parent_id = "RADIOSITY_PT_sidebar"
-    bl_options = {'DEFAULT_CLOSED'}
-
-    def draw(self, context):
-        draw_settings(self.layout, context)
-
-
-class RADIOSITY_PT_sidebar_results(_Sidebar, bpy.types.Panel):
-    bl_label = "Last Bake"
-    bl_parent_id = "RADIOSITY_PT_sidebar"
-
-    def draw(self, context):
-        draw_results(self.layout, context)
-
-
-classes = (RADIOSITY_PT_render, RADIOSITY_PT_render_settings, RADIOSITY_PT_render_results,
-           RADIOSITY_PT_sidebar, RADIOSITY_PT_sidebar_settings, RADIOSITY_PT_sidebar_results)
+classes = _panels(_Render, "render", closed=True) + _panels(_Sidebar, "sidebar", closed=False)

@@ -3,28 +3,14 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-# Mirrors engine/src/settings.cpp (the engine stays the source of truth: _fill() asks it when it can).
-PRESET_VALUES = {
-    'DRAFT': dict(samples_direct=16, samples_indirect=4, patch_size_relative=1 / 16, threshold=1e-2,
-                  relaxation=1.3),
-    'DEFAULT': dict(samples_direct=64, samples_indirect=16, patch_size_relative=1 / 32, threshold=1e-3,
-                    relaxation=1.3),
-    'HIGH': dict(samples_direct=256, samples_indirect=64, patch_size_relative=1 / 64, threshold=2e-4,
-                 relaxation=1.3),
-    'REFERENCE': dict(samples_direct=1024, samples_indirect=256, patch_size_relative=1 / 128,
-                      threshold=1e-5, relaxation=1.3),
-}
 KNOBS = ("samples_direct", "samples_indirect", "patch_size_relative", "threshold", "relaxation")
 
 
 def preset_values(name):
-    """Knob values of a preset, from the engine when available."""
-    try:
-        from .bake import load_engine
-        s = load_engine().Settings.preset(name.lower())
-        return {k: getattr(s, k) for k in KNOBS}
-    except Exception:   # noqa: BLE001 -- fall back to the mirrored table
-        return dict(PRESET_VALUES[name])
+    """Knob values of a preset: the engine's Settings are their one source."""
+    from .bake import load_engine
+    s = load_engine().Settings.preset(name.lower())
+    return {k: getattr(s, k) for k in KNOBS}
 
 
 def _fill(self, _context):
