@@ -22,7 +22,7 @@ def floor_values(solver, room):
 
 def main():
     preset = sys.argv[1] if len(sys.argv) > 1 else "default"
-    sizes = [float(s) for s in sys.argv[2:]] or [0.15, 0.05, 0.016]  # patch sizes (m): ~1k, 10k, 100k points
+    sizes = [float(s) for s in sys.argv[2:]] or [0.25, 0.1, 0.03]  # patch sizes (m): 1.4k, 9k, 135k points
     runs = []
     for patch in sizes:
         scene, ids = cornell_box(patch_size=patch)
