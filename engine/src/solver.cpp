@@ -63,8 +63,9 @@ struct Solver::Impl {
     }
     front.assign(mesh.points.size(), dvec3(0.0));
     back.assign(mesh.points.size(), dvec3(0.0));
-    unshot.assign(mesh.patches.size(), CornerUnshot{});
-    for (CornerUnshot& u : unshot) u.fill(dvec3(0.0));
+    CornerUnshot none;
+    none.fill(dvec3(0.0));
+    unshot.assign(mesh.patches.size(), none);
 
     stats.patches = int(mesh.patches.size());
     stats.points = int(mesh.points.size());
@@ -80,10 +81,8 @@ struct Solver::Impl {
   // Gathers into delta_* for every receiving point; false if cancelled part-way.
   template <class Gather>
   bool gather_all(Gather&& gather_one) {
-    std::fill(delta_front.begin(), delta_front.end(), dvec3(0.0));
-    std::fill(delta_back.begin(), delta_back.end(), dvec3(0.0));
-    delta_front.resize(mesh.points.size(), dvec3(0.0));
-    delta_back.resize(mesh.points.size(), dvec3(0.0));
+    delta_front.assign(mesh.points.size(), dvec3(0.0));
+    delta_back.assign(mesh.points.size(), dvec3(0.0));
     long long rays = 0;
     int count = int(mesh.points.size());
     // Small scenes stay on one thread: thousands of tiny parallel regions lose to spinning barriers,
