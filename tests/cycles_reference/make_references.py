@@ -33,6 +33,9 @@ import time
 import bpy
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import cycles_settings  # noqa: E402
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 SAMPLES_DIR = os.path.join(ROOT, "sample_blends")
@@ -54,17 +57,7 @@ def args():
 
 
 def configure(sc, samples, seed=0):
-    sc.render.engine = 'CYCLES'
-    cy = sc.cycles
-    cy.device = 'CPU'
-    cy.samples = samples
-    cy.use_denoising = False
-    cy.use_adaptive_sampling = False
-    cy.sample_clamp_direct = 0.0
-    cy.sample_clamp_indirect = 0.0
-    cy.max_bounces = 64
-    cy.diffuse_bounces = 64
-    cy.seed = seed
+    cycles_settings.unbiased(sc, samples, 64, seed)
     sc.render.bake.target = 'VERTEX_COLORS'
     sc.render.bake.use_selected_to_active = False
 

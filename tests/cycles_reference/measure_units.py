@@ -8,10 +8,14 @@ corner with an analytic prediction. Results are printed; they are summarised in
 addon/CYCLES_UNITS.md.
 """
 import math
+import os
 import sys
 
 import bpy
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import cycles_settings  # noqa: E402
 
 RHO = 0.8
 PI = math.pi
@@ -21,20 +25,7 @@ PI = math.pi
 def fresh(samples=256, bounces=0):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     sc = bpy.context.scene
-    sc.render.engine = 'CYCLES'
-    cy = sc.cycles
-    cy.device = 'CPU'
-    cy.samples = samples
-    cy.use_denoising = False
-    cy.use_adaptive_sampling = False
-    cy.sample_clamp_direct = 0.0
-    cy.sample_clamp_indirect = 0.0
-    cy.diffuse_bounces = bounces
-    cy.max_bounces = max(bounces, 1) if bounces else 0
-    cy.glossy_bounces = 0
-    cy.transmission_bounces = 0
-    cy.transparent_max_bounces = 0
-    cy.seed = 1
+    cycles_settings.unbiased(sc, samples, bounces, seed=1)
     world = bpy.data.worlds.new("World")
     world.use_nodes = True
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
