@@ -23,7 +23,7 @@ using CornerUnshot = std::array<dvec3, 8>;
 
 struct ShotCell {
   Cell cell;
-  dvec3 radiance[2];  // front, back
+  dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // front, back
 };
 
 struct ShotElement {
@@ -31,7 +31,7 @@ struct ShotElement {
   double projected_area = 0.0;  // |vector area|: cos-weighted area is projected_area * |cos|
   double radius = 0.0;
   bool flat = false;
-  dvec3 radiance[2];            // mean unshot radiance per side, over what the anchor sees
+  dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
   int left = -1, right = -1;    // children (elements) for clusters
   int cell_begin = 0, cell_end = 0;  // cells for patches (leaves)
 };
