@@ -30,6 +30,19 @@ RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatc
   return geom;
 }
 
+RTCRay make_ray(const dvec3& origin, const dvec3& dir, float tfar) {
+  RTCRay r;
+  r.org_x = float(origin.x), r.org_y = float(origin.y), r.org_z = float(origin.z);
+  r.dir_x = float(dir.x), r.dir_y = float(dir.y), r.dir_z = float(dir.z);
+  r.tnear = 0.0f;
+  r.tfar = tfar;
+  r.time = 0.0f;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+  return r;
+}
+
 }  // namespace
 
 Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects)
@@ -108,30 +121,14 @@ bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, cons
   dvec3 dir = b + lift * nb - origin;
   double len = glm::length(dir);
   if (len <= 2 * epsilon_) return true;
-  RTCRay ray;
-  ray.org_x = float(origin.x), ray.org_y = float(origin.y), ray.org_z = float(origin.z);
-  ray.dir_x = float(dir.x), ray.dir_y = float(dir.y), ray.dir_z = float(dir.z);
-  ray.tnear = 0.0f;
-  ray.tfar = float(1.0 - epsilon_ / len);
-  ray.time = 0.0f;
-  ray.mask = 0xFFFFFFFFu;
-  ray.id = 0;
-  ray.flags = 0;
+  RTCRay ray = make_ray(origin, dir, float(1.0 - epsilon_ / len));
   occluded(&ray, 1);
   return ray.tfar >= 0;
 }
 
 void OcclusionBatch::push(int receiver, const dvec3& origin, const dvec3& dir, float tfar,
                           const dvec3& front, const dvec3& back) {
-  RTCRay& r = rays_[count_];
-  r.org_x = float(origin.x), r.org_y = float(origin.y), r.org_z = float(origin.z);
-  r.dir_x = float(dir.x), r.dir_y = float(dir.y), r.dir_z = float(dir.z);
-  r.tnear = 0.0f;
-  r.tfar = tfar;
-  r.time = 0.0f;
-  r.mask = 0xFFFFFFFFu;
-  r.id = count_;
-  r.flags = 0;
+  rays_[count_] = make_ray(origin, dir, tfar);
   receiver_[count_] = receiver;
   carried_[count_][0] = front;
   carried_[count_][1] = back;
