@@ -65,34 +65,29 @@ def new_scene():
     return sc
 
 
-def diffuse(name, rgb):
+def shader_material(name, node_type, rgb, **inputs):
+    """A node material of one shader (colour `rgb` plus `inputs`) into the output."""
     m = bpy.data.materials.new(name)
     m.use_nodes = True
     nt = m.node_tree
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputMaterial")
     out.location = (300, 0)
-    d = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    d.inputs["Color"].default_value = (*rgb, 1.0)
-    d.inputs["Roughness"].default_value = 0.0
-    nt.links.new(d.outputs["BSDF"], out.inputs["Surface"])
+    shader = nt.nodes.new(node_type)
+    shader.inputs["Color"].default_value = (*rgb, 1.0)
+    for key, value in inputs.items():
+        shader.inputs[key].default_value = value
+    nt.links.new(shader.outputs[0], out.inputs["Surface"])
     m.diffuse_color = (*rgb, 1.0)
     return m
+
+
+def diffuse(name, rgb):
+    return shader_material(name, "ShaderNodeBsdfDiffuse", rgb, Roughness=0.0)
 
 
 def emission(name, rgb, strength):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nt = m.node_tree
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    out.location = (300, 0)
-    e = nt.nodes.new("ShaderNodeEmission")
-    e.inputs["Color"].default_value = (*rgb, 1.0)
-    e.inputs["Strength"].default_value = strength
-    nt.links.new(e.outputs["Emission"], out.inputs["Surface"])
-    m.diffuse_color = (*rgb, 1.0)
-    return m
+    return shader_material(name, "ShaderNodeEmission", rgb, Strength=strength)
 
 
 def mesh_object(name, verts, faces, materials, face_materials=None, location=(0, 0, 0), rotation=(0, 0, 0)):

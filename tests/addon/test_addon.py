@@ -10,7 +10,7 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import ROOT, SAMPLES
+from conftest import ROOT, SAMPLES, load_package
 
 ENGINE_DIR = os.path.join(ROOT, "build", "engine")
 if not os.path.isdir(ENGINE_DIR) or not any(f.startswith("radiosity_engine") for f in os.listdir(ENGINE_DIR)):
@@ -27,12 +27,7 @@ def open_blend(name, frame=None, preset='DRAFT'):
 
 
 def colours(ob):
-    a = ob.data.color_attributes.get("Radiosity")
-    if a is None:
-        return None
-    v = np.empty(len(a.data) * 4, np.float32)
-    a.data.foreach_get("color", v)
-    return v.reshape(-1, 4)
+    return load_package().writeback.read_mesh(ob.data)
 
 
 def meshes(scene):

@@ -15,7 +15,9 @@ import bpy
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "sample_blends"))
 import cycles_settings  # noqa: E402
+import make_samples  # noqa: E402  (its node materials)
 
 RHO = 0.8
 PI = math.pi
@@ -35,28 +37,11 @@ def fresh(samples=256, bounces=0):
 
 
 def diffuse_material(name, rho=RHO):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nt = m.node_tree
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    d = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    d.inputs["Color"].default_value = (rho, rho, rho, 1)
-    nt.links.new(d.outputs[0], out.inputs["Surface"])
-    return m
+    return make_samples.diffuse(name, (rho, rho, rho))
 
 
 def emission_material(name, color, strength):
-    m = bpy.data.materials.new(name)
-    m.use_nodes = True
-    nt = m.node_tree
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    e = nt.nodes.new("ShaderNodeEmission")
-    e.inputs["Color"].default_value = (*color, 1)
-    e.inputs["Strength"].default_value = strength
-    nt.links.new(e.outputs[0], out.inputs["Surface"])
-    return m
+    return make_samples.emission(name, color, strength)
 
 
 def grid(name, half, n, location=(0, 0, 0), rotation=(0, 0, 0), material=None):
