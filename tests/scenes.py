@@ -50,14 +50,14 @@ class Mesh:
                               np.array(self.materials, np.int32), **kwargs)
 
 
-def cornell_box(patch_size=0.0):
+def cornell_box(patch_size=0.0, emission=15.0):
     """A 2 m Cornell box (open front, at -y) with a ceiling emitter and two blocks.
     Returns (scene, object ids)."""
     scene = engine.Scene()
     white = scene.add_material((0.73, 0.73, 0.73))
     red = scene.add_material((0.65, 0.05, 0.05))
     green = scene.add_material((0.12, 0.45, 0.15))
-    light = scene.add_material((0.78, 0.78, 0.78), (15.0, 15.0, 15.0))
+    light = scene.add_material((0.78, 0.78, 0.78), (emission,) * 3)
     room = Mesh()
     def wall_material(quad):
         xs = {p[0] for p in quad}
@@ -81,3 +81,32 @@ def cornell_box(patch_size=0.0):
     blocks.add_box((0.4, -0.3, 0.3), (0.6, 0.6, 0.6), white, angle=-0.3)
     ids = [m.add_to(scene, refine="bilinear", patch_size=patch_size) for m in (room, lamp, blocks)]
     return scene, ids
+
+
+# The changeable state of `changing_room`, as set_* calls would change it.
+ROOM_STATE = dict(cube=(0.3, -0.4, 0.5), cube_scale=(1.0, 1.0, 1.0), cube_rho=(0.5, 0.6, 0.7), lamp_emission=15.0,
+                  point=((0.5, -0.5, 1.5), (3.0, 3.0, 3.0)), world=(0.05, 0.05, 0.08))
+
+
+def cube_positions(scale=(1.0, 1.0, 1.0), size=0.3):
+    """A cube's corners, stretched by `scale` per axis (a deformation that keeps its edges' lengths
+    at most `size`, so it refines as before), and the Mesh they came from."""
+    cube = Mesh()
+    cube.add_box((0, 0, 0), (size, size, size), 0)
+    return np.array(cube.positions) * np.asarray(scale), cube
+
+
+def changing_room(state=ROOM_STATE, patch_size=0.0):
+    """The Cornell box with a small dynamic cube, a point lamp and a dim world, in `state`.
+    Returns (scene, object ids, cube id); the cube's material is the last one, the ceiling lamp's 3."""
+    scene, ids = cornell_box(patch_size, state["lamp_emission"])
+    m = scene.add_material(state["cube_rho"])
+    positions, cube = cube_positions(state["cube_scale"])
+    cube.positions = list(positions)
+    cube.materials = [m] * len(cube.faces)
+    transform = np.eye(4)
+    transform[:3, 3] = state["cube"]
+    cube_id = cube.add_to(scene, refine="bilinear", patch_size=patch_size, transform=transform, dynamic=True)
+    scene.add_point_light(*state["point"], 0.05)
+    scene.set_world(state["world"])
+    return scene, ids + [cube_id], cube_id

@@ -56,7 +56,90 @@ py::dict stats_dict(const SolveStats& s) {
   d["converged"] = s.converged;
   d["cancelled"] = s.cancelled;
   d["warnings"] = s.warnings;
+  d["touched_points"] = s.touched_points;
   return d;
+}
+
+// numpy/Blender matrices are row-major; glm is column-major.
+dmat4 matrix(const Array<double>& m) {
+  if (m.size() != 16) throw std::invalid_argument("transform must be 4 x 4");
+  dmat4 out;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) out[c][r] = m.data()[4 * r + c];
+  return out;
+}
+
+Lamp point_lamp(std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
+  Lamp l;
+  l.type = Lamp::Type::Point;
+  l.position = vec3(position);
+  l.color = vec3(intensity);
+  l.radius = radius;
+  return l;
+}
+
+Lamp spot_lamp(std::array<double, 3> position, std::array<double, 3> direction, std::array<double, 3> intensity,
+               double radius, double spot_size, double spot_blend) {
+  Lamp l = point_lamp(position, intensity, radius);
+  l.type = Lamp::Type::Spot;
+  l.direction = vec3(direction);
+  l.spot_size = spot_size;
+  l.spot_blend = spot_blend;
+  return l;
+}
+
+Lamp sun_lamp(std::array<double, 3> direction, std::array<double, 3> irradiance, double angle) {
+  Lamp l;
+  l.type = Lamp::Type::Sun;
+  l.direction = vec3(direction);
+  l.color = vec3(irradiance);
+  l.angle = angle;
+  return l;
+}
+
+Lamp area_lamp(std::array<double, 3> position, std::array<double, 3> u_axis, std::array<double, 3> v_axis,
+               std::array<double, 3> radiance, const std::string& shape) {
+  Lamp l;
+  l.position = vec3(position);
+  l.u_axis = vec3(u_axis);
+  l.v_axis = vec3(v_axis);
+  l.color = vec3(radiance);
+  if (shape == "rect") {
+    l.type = Lamp::Type::Rect;
+  } else if (shape == "disc") {
+    l.type = Lamp::Type::Disc;
+    l.radius = glm::length(l.u_axis);
+    l.direction = -glm::cross(l.u_axis, l.v_axis);
+  } else {
+    throw std::invalid_argument("shape must be 'rect' or 'disc'");
+  }
+  return l;
+}
+
+// Runs a long solver call without the GIL; progress(fraction, residual) may return False to cancel
+// and its exceptions come back to the caller.
+template <class Call>
+py::dict run(Solver& solver, const std::optional<py::function>& progress, Call&& call) {
+  std::exception_ptr error;
+  ProgressCallback callback;
+  if (progress) {
+    callback = [&](double fraction, double residual) {
+      py::gil_scoped_acquire acquire;
+      try {
+        py::object r = (*progress)(fraction, residual);
+        return r.is_none() || r.cast<bool>();
+      } catch (...) {
+        error = std::current_exception();
+        return false;
+      }
+    };
+  }
+  {
+    py::gil_scoped_release release;
+    call(callback);
+  }
+  if (error) std::rethrow_exception(error);
+  return stats_dict(solver.stats());
 }
 
 }  // namespace
@@ -96,12 +179,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
              mesh.face_sizes = flat(face_sizes);
              mesh.face_vertices = flat(face_vertices);
              mesh.face_materials = flat(face_materials);
-             if (transform) {
-               if (transform->size() != 16) throw std::invalid_argument("transform must be 4 x 4");
-               // numpy/Blender matrices are row-major; glm is column-major.
-               for (int r = 0; r < 4; ++r)
-                 for (int c = 0; c < 4; ++c) mesh.transform[c][r] = transform->data()[4 * r + c];
-             }
+             if (transform) mesh.transform = matrix(*transform);
              mesh.refine = refinement(refine);
              mesh.level = level;
              mesh.patch_size = patch_size;
@@ -114,58 +192,26 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "")
       .def("add_point_light",
            [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
-             Lamp l;
-             l.type = Lamp::Type::Point;
-             l.position = vec3(position);
-             l.color = vec3(intensity);
-             l.radius = radius;
-             s.lamps.push_back(l);
+             s.lamps.push_back(point_lamp(position, intensity, radius));
            },
            py::arg("position"), py::arg("intensity"), py::arg("radius") = 0.0,
            "Sphere lamp: intensity in W/sr (radiance units x area), Cycles' disc of `radius` for shadows")
       .def("add_spot_light",
            [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> direction,
               std::array<double, 3> intensity, double radius, double spot_size, double spot_blend) {
-             Lamp l;
-             l.type = Lamp::Type::Spot;
-             l.position = vec3(position);
-             l.direction = vec3(direction);
-             l.color = vec3(intensity);
-             l.radius = radius;
-             l.spot_size = spot_size;
-             l.spot_blend = spot_blend;
-             s.lamps.push_back(l);
+             s.lamps.push_back(spot_lamp(position, direction, intensity, radius, spot_size, spot_blend));
            },
            py::arg("position"), py::arg("direction"), py::arg("intensity"), py::arg("radius") = 0.0,
            py::arg("spot_size") = 0.785398, py::arg("spot_blend") = 0.15)
       .def("add_sun_light",
            [](SceneDesc& s, std::array<double, 3> direction, std::array<double, 3> irradiance, double angle) {
-             Lamp l;
-             l.type = Lamp::Type::Sun;
-             l.direction = vec3(direction);
-             l.color = vec3(irradiance);
-             l.angle = angle;
-             s.lamps.push_back(l);
+             s.lamps.push_back(sun_lamp(direction, irradiance, angle));
            },
            py::arg("direction"), py::arg("irradiance"), py::arg("angle") = 0.0)
       .def("add_area_light",
            [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> u_axis,
               std::array<double, 3> v_axis, std::array<double, 3> radiance, const std::string& shape) {
-             Lamp l;
-             l.position = vec3(position);
-             l.u_axis = vec3(u_axis);
-             l.v_axis = vec3(v_axis);
-             l.color = vec3(radiance);
-             if (shape == "rect") {
-               l.type = Lamp::Type::Rect;
-             } else if (shape == "disc") {
-               l.type = Lamp::Type::Disc;
-               l.radius = glm::length(l.u_axis);
-               l.direction = -glm::cross(l.u_axis, l.v_axis);
-             } else {
-               throw std::invalid_argument("shape must be 'rect' or 'disc'");
-             }
-             s.lamps.push_back(l);
+             s.lamps.push_back(area_lamp(position, u_axis, v_axis, radiance, shape));
            },
            py::arg("position"), py::arg("u_axis"), py::arg("v_axis"), py::arg("radiance"),
            py::arg("shape") = "rect",
@@ -181,29 +227,54 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("scene"), py::arg("settings") = Settings())
       .def("solve",
            [](Solver& solver, std::optional<py::function> progress) {
-             std::exception_ptr error;
-             ProgressCallback callback;
-             if (progress) {
-               callback = [&](double fraction, double residual) {
-                 py::gil_scoped_acquire acquire;
-                 try {
-                   py::object r = (*progress)(fraction, residual);
-                   return r.is_none() || r.cast<bool>();
-                 } catch (...) {
-                   error = std::current_exception();
-                   return false;
-                 }
-               };
-             }
-             {
-               py::gil_scoped_release release;
-               solver.solve(callback);
-             }
-             if (error) std::rethrow_exception(error);
-             return stats_dict(solver.stats());
+             return run(solver, progress, [&](const ProgressCallback& c) { solver.solve(c); });
            },
            py::arg("progress") = py::none(),
            "Solve to the threshold. progress(fraction, residual) may return False to cancel.")
+      .def("update",
+           [](Solver& solver, std::optional<py::function> progress) {
+             return run(solver, progress, [&](const ProgressCallback& c) { solver.update(c); });
+           },
+           py::arg("progress") = py::none(),
+           "Apply the set_* changes incrementally, then shoot to the threshold (stats as solve(), plus "
+           "touched_points). A bad change raises ValueError and leaves the solution as it was.")
+      .def("set_transform",
+           [](Solver& s, int object, const Array<double>& m) { s.set_transform(object, matrix(m)); },
+           py::arg("object"), py::arg("transform"))
+      .def("set_positions",
+           [](Solver& s, int object, const Array<double>& p) { s.set_positions(object, points(p, "positions")); },
+           py::arg("object"), py::arg("positions"), "object-space positions, same vertices and faces as added")
+      .def("set_material",
+           [](Solver& s, int index, std::array<double, 3> reflectance, std::array<double, 3> emission) {
+             s.set_material(index, {vec3(reflectance), vec3(emission)});
+           },
+           py::arg("index"), py::arg("reflectance"), py::arg("emission") = std::array<double, 3>{0, 0, 0})
+      .def("set_point_light",
+           [](Solver& s, int index, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
+             s.set_lamp(index, point_lamp(position, intensity, radius));
+           },
+           py::arg("index"), py::arg("position"), py::arg("intensity"), py::arg("radius") = 0.0)
+      .def("set_spot_light",
+           [](Solver& s, int index, std::array<double, 3> position, std::array<double, 3> direction,
+              std::array<double, 3> intensity, double radius, double spot_size, double spot_blend) {
+             s.set_lamp(index, spot_lamp(position, direction, intensity, radius, spot_size, spot_blend));
+           },
+           py::arg("index"), py::arg("position"), py::arg("direction"), py::arg("intensity"),
+           py::arg("radius") = 0.0, py::arg("spot_size") = 0.785398, py::arg("spot_blend") = 0.15)
+      .def("set_sun_light",
+           [](Solver& s, int index, std::array<double, 3> direction, std::array<double, 3> irradiance, double angle) {
+             s.set_lamp(index, sun_lamp(direction, irradiance, angle));
+           },
+           py::arg("index"), py::arg("direction"), py::arg("irradiance"), py::arg("angle") = 0.0)
+      .def("set_area_light",
+           [](Solver& s, int index, std::array<double, 3> position, std::array<double, 3> u_axis,
+              std::array<double, 3> v_axis, std::array<double, 3> radiance, const std::string& shape) {
+             s.set_lamp(index, area_lamp(position, u_axis, v_axis, radiance, shape));
+           },
+           py::arg("index"), py::arg("position"), py::arg("u_axis"), py::arg("v_axis"), py::arg("radiance"),
+           py::arg("shape") = "rect")
+      .def("set_world", [](Solver& s, std::array<double, 3> radiance) { s.set_world(vec3(radiance)); },
+           py::arg("radiance"))
       .def("cancel", &Solver::cancel)
       .def("record_rays", &Solver::record_rays, py::arg("stride") = 1,
            "Benchmark hook: keep every stride-th batch of visibility rays traced from now on")

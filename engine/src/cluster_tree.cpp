@@ -27,10 +27,10 @@ struct Builder {
     return id;
   }
 
+  // Sets the node's bounds and summary from its patches (on a refit, anew: children stay).
   void summarise(int id, int begin, int end) {
     ClusterNode& node = tree.nodes[id];
-    node.begin = begin;
-    node.end = end;
+    node = ClusterNode{begin, end, node.left, node.right};
     dvec3 weighted(0.0), plain(0.0);
     for (int i = begin; i < end; ++i) {
       const Patch& p = mesh.patches[tree.order[i]];
@@ -87,9 +87,27 @@ ClusterTree ClusterTree::build(const PatchMesh& mesh) {
   for (size_t i = 0; i < tree.order.size(); ++i) tree.order[i] = int(i);
   tree.nodes.reserve(2 * mesh.patches.size());
   Builder builder{mesh, tree};
-  for (const ObjectPatches& obj : mesh.objects)
-    if (obj.patch_end > obj.patch_begin) tree.roots.push_back(builder.build(obj.patch_begin, obj.patch_end));
+  for (const ObjectPatches& obj : mesh.objects) {
+    tree.object_root.push_back(-1);
+    if (obj.patch_end > obj.patch_begin) {
+      tree.object_root.back() = builder.build(obj.patch_begin, obj.patch_end);
+      tree.roots.push_back(tree.object_root.back());
+    }
+  }
   return tree;
+}
+
+void ClusterTree::refit(const PatchMesh& mesh, int object) {
+  Builder builder{mesh, *this};
+  auto [first, last] = object_nodes(object);
+  for (int id = first; id < last; ++id) builder.summarise(id, nodes[id].begin, nodes[id].end);
+}
+
+std::pair<int, int> ClusterTree::object_nodes(int object) const {
+  int root = object_root.at(object);
+  if (root < 0) return {0, 0};
+  // Nodes are made depth first, so a subtree of k patches is the 2k - 1 nodes from its root.
+  return {root, root + 2 * (nodes[root].end - nodes[root].begin) - 1};
 }
 
 std::vector<int> ClusterTree::cut(double radius) const {

@@ -5,6 +5,7 @@
 
 #include "patch_mesh.h"
 
+#include <utility>
 #include <vector>
 
 namespace radiosity {
@@ -23,11 +24,16 @@ struct ClusterNode {
 struct ClusterTree {
   std::vector<int> order;  // patch indices; a node's patches are contiguous
   std::vector<ClusterNode> nodes;
-  std::vector<int> roots;  // one per object that has patches
+  std::vector<int> roots;        // one per object that has patches
+  std::vector<int> object_root;  // per object, -1 if it has no patches
 
   static ClusterTree build(const PatchMesh& mesh);
   // The coarsest nodes no larger than `radius`: a partition of all patches into shooters.
   std::vector<int> cut(double radius) const;
+  // After an object moved or deformed: its clusters' bounds and summaries anew, same hierarchy.
+  void refit(const PatchMesh& mesh, int object);
+  // The object's nodes: ids [first, last).
+  std::pair<int, int> object_nodes(int object) const;
 };
 
 }  // namespace radiosity

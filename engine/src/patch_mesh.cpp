@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace radiosity {
 
@@ -25,46 +26,87 @@ void scene_bounds(const SceneDesc& scene, dvec3& lo, dvec3& hi) {
     }
 }
 
-// Adds one object's refined patches; points are made afterwards from the corners.
+// Appends one object's patches (topology only: corners, material, object); `set_geometry` places them.
 void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined, int object,
-                 std::vector<dvec3>& corner_normals) {
+                 ObjectPatches& obj) {
   int base = int(pm.vertices.size());
-  for (const dvec3& p : refined.positions) pm.vertices.push_back(transform_point(mesh.transform, p) - pm.origin);
-  glm::dmat3 linear(mesh.transform);
-  bool mirrored = glm::determinant(linear) < 0;
-  glm::dmat3 normal_matrix = glm::transpose(glm::inverse(linear));
-
+  pm.vertices.resize(base + refined.positions.size());
+  // A mirroring transform turns counter-clockwise into clockwise: swap to keep the front.
+  bool mirrored = glm::determinant(glm::dmat3(mesh.transform)) < 0;
+  obj.mirrored = mirrored;
   for (size_t q = 0; q < refined.quads.size(); ++q) {
     std::array<int, 4> v = refined.quads[q];
-    if (mirrored) std::swap(v[1], v[3]);  // keep counter-clockwise = front after a mirroring transform
+    if (mirrored) std::swap(v[1], v[3]);
     Patch patch;
     for (int c = 0; c < 4; ++c) patch.vertex[c] = base + v[c];
+    patch.material = mesh.face_materials[refined.quad_face[q]];
+    patch.object = object;
+    pm.patches.push_back(patch);
+  }
+}
+
+// Places an object's vertices and patches from its refinement and transform; returns the corner
+// normals (4 per patch, the object's patches in order) that receiving points take.
+std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined,
+                                ObjectPatches& obj) {
+  for (size_t i = 0; i < refined.positions.size(); ++i)
+    pm.vertices[obj.vertex_begin + i] = transform_point(mesh.transform, refined.positions[i]) - pm.origin;
+  glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(mesh.transform)));
+  pm.degenerate_patches -= obj.degenerate;
+  obj.degenerate = 0;
+  std::vector<dvec3> corner_normals;
+  corner_normals.reserve(4 * (obj.patch_end - obj.patch_begin));
+  for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
+    Patch& patch = pm.patches[q];
     const dvec3* p[4];
     for (int c = 0; c < 4; ++c) p[c] = &pm.vertices[patch.vertex[c]];
     dvec3 va = 0.5 * glm::cross(*p[2] - *p[0], *p[3] - *p[1]);
     patch.area = glm::length(va);
     patch.centre = 0.25 * (*p[0] + *p[1] + *p[2] + *p[3]);
-    patch.material = mesh.face_materials[refined.quad_face[q]];
-    patch.object = object;
+    patch.normal = dvec3(0.0);
     if (!(patch.area > 1e-14 * pm.diagonal * pm.diagonal)) {
       patch.area = 0.0;
-      ++pm.degenerate_patches;
+      ++obj.degenerate;
     } else {
       patch.normal = va / patch.area;
     }
     for (int c = 0; c < 4; ++c) {
       dvec3 n = patch.normal;
       if (!refined.normals.empty() && patch.area > 0) {
-        dvec3 smooth = normal_matrix * refined.normals[v[c]];
+        dvec3 smooth = normal_matrix * refined.normals[patch.vertex[c] - obj.vertex_begin];
         if (glm::length(smooth) > 0) n = glm::normalize(smooth);
       }
       corner_normals.push_back(n);
     }
-    pm.patches.push_back(patch);
+  }
+  pm.degenerate_patches += obj.degenerate;
+  return corner_normals;
+}
+
+// Puts points [begin, end) at their vertices, facing the way their first corner faces, nudged
+// towards the centres of their patches. `corner_normal[slot - first_slot]` is a corner's normal.
+void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int begin, int end) {
+  for (int p = begin; p < end; ++p) {
+    ReceiverPoint& rp = pm.points[p];
+    int first = pm.point_slots[pm.point_slot_begin[p]];
+    rp.position = pm.vertices[pm.patches[first / 4].vertex[first % 4]];
+    rp.normal = corner_normal[first - first_slot];
+    dvec3 centre_sum(0.0);
+    int count = 0;
+    for (int i = pm.point_slot_begin[p]; i < pm.point_slot_begin[p + 1]; ++i) {
+      const Patch& patch = pm.patches[pm.point_slots[i] / 4];
+      if (patch.area > 0) centre_sum += patch.centre, ++count;
+    }
+    if (count == 0) continue;
+    // Along the tangent plane only: on a curved surface the patch centres lie below it, and a
+    // point moved towards them would sit inside the tessellated surface, shadowed by itself.
+    dvec3 towards = centre_sum / double(count) - rp.position;
+    rp.position += kInwardNudge * (towards - glm::dot(towards, rp.normal) * rp.normal);
   }
 }
 
-// Groups the corners at each vertex into receiving points by normal.
+// Groups the corners at each vertex into receiving points by normal (the first corner of a group
+// sets its normal), then places them.
 void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals) {
   int slots = int(pm.patches.size()) * 4;
   std::vector<int> by_vertex(slots);
@@ -73,42 +115,26 @@ void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals) {
     return pm.patches[a / 4].vertex[a % 4] < pm.patches[b / 4].vertex[b % 4];
   });
   std::vector<int> slot_point(slots, -1);
-  std::vector<dvec3> centre_sum;
-  std::vector<int> centre_count;
+  std::vector<dvec3> point_normal;
   for (int i = 0; i < slots;) {
     int vertex = pm.patches[by_vertex[i] / 4].vertex[by_vertex[i] % 4];
-    int first_point = int(pm.points.size());
+    int first_point = int(point_normal.size());
     int j = i;
     for (; j < slots && pm.patches[by_vertex[j] / 4].vertex[by_vertex[j] % 4] == vertex; ++j) {
       int s = by_vertex[j];
       const dvec3& n = corner_normals[s];
       int chosen = -1;
-      for (int p = first_point; p < int(pm.points.size()) && chosen < 0; ++p)
-        if (glm::length(n) == 0 || glm::dot(pm.points[p].normal, n) > kSameNormal) chosen = p;
+      for (int p = first_point; p < int(point_normal.size()) && chosen < 0; ++p)
+        if (glm::length(n) == 0 || glm::dot(point_normal[p], n) > kSameNormal) chosen = p;
       if (chosen < 0) {
-        chosen = int(pm.points.size());
-        pm.points.push_back({pm.vertices[vertex], n});
-        centre_sum.push_back(dvec3(0.0));
-        centre_count.push_back(0);
+        chosen = int(point_normal.size());
+        point_normal.push_back(n);
       }
       slot_point[s] = chosen;
-      const Patch& patch = pm.patches[s / 4];
-      if (patch.area > 0) {
-        centre_sum[chosen] += patch.centre;
-        ++centre_count[chosen];
-      }
     }
     i = j;
   }
-  for (size_t p = 0; p < pm.points.size(); ++p)
-    if (centre_count[p] > 0) {
-      ReceiverPoint& rp = pm.points[p];
-      // Along the tangent plane only: on a curved surface the patch centres lie below it, and a
-      // point moved towards them would sit inside the tessellated surface, shadowed by itself.
-      dvec3 towards = centre_sum[p] / double(centre_count[p]) - rp.position;
-      rp.position += kInwardNudge * (towards - glm::dot(towards, rp.normal) * rp.normal);
-    }
-
+  pm.points.resize(point_normal.size());
   pm.point_slot_begin.assign(pm.points.size() + 1, 0);
   for (int s = 0; s < slots; ++s) {
     pm.patches[s / 4].point[s % 4] = slot_point[s];
@@ -118,10 +144,11 @@ void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals) {
   pm.point_slots.resize(slots);
   std::vector<int> fill(pm.point_slot_begin.begin(), pm.point_slot_begin.end() - 1);
   for (int s = 0; s < slots; ++s) pm.point_slots[fill[slot_point[s]]++] = s;
+  place_points(pm, corner_normals.data(), 0, 0, int(pm.points.size()));
 }
 
 // For each input face corner, the patch corner at the same place.
-std::vector<int> corner_slots(const MeshDesc& mesh, const RefinedMesh& refined, int patch_begin) {
+std::vector<int> corner_slots(const MeshDesc& mesh, const RefinedMesh& refined, const ObjectPatches& obj) {
   std::vector<int> first_quad(mesh.face_sizes.size() + 1, 0);
   for (int f : refined.quad_face) ++first_quad[f + 1];
   for (size_t f = 0; f < mesh.face_sizes.size(); ++f) first_quad[f + 1] += first_quad[f];
@@ -140,7 +167,7 @@ std::vector<int> corner_slots(const MeshDesc& mesh, const RefinedMesh& refined, 
         int q = quads_by_face[i];
         for (int c = 0; c < 4; ++c)
           if (refined.quads[q][c] == target) {
-            slot = (patch_begin + q) * 4 + c;
+            slot = (obj.patch_begin + q) * 4 + (obj.mirrored && c % 2 ? 4 - c : c);  // see add_patches
             break;
           }
       }
@@ -167,12 +194,17 @@ PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
     const MeshDesc& mesh = scene.meshes[i];
     double patch_size = mesh.patch_size > 0 ? mesh.patch_size
                                             : settings.patch_size_relative * pm.diagonal;
-    RefinedMesh refined = refine_mesh(mesh, bilinear_level(mesh, patch_size));
     ObjectPatches obj;
+    obj.level = bilinear_level(mesh, patch_size);
+    RefinedMesh refined = refine_mesh(mesh, obj.level);
     obj.patch_begin = int(pm.patches.size());
-    add_patches(pm, mesh, refined, int(i), corner_normals);
+    obj.vertex_begin = int(pm.vertices.size());
+    add_patches(pm, mesh, refined, int(i), obj);
     obj.patch_end = int(pm.patches.size());
-    obj.corner_slot = corner_slots(mesh, refined, obj.patch_begin);
+    obj.vertex_end = int(pm.vertices.size());
+    std::vector<dvec3> normals = set_geometry(pm, mesh, refined, obj);
+    corner_normals.insert(corner_normals.end(), normals.begin(), normals.end());
+    obj.corner_slot = corner_slots(mesh, refined, obj);
     pm.objects.push_back(std::move(obj));
   }
   make_points(pm, corner_normals);
@@ -188,6 +220,27 @@ PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
     if (obj.point_end == 0) obj.point_begin = 0;
   }
   return pm;
+}
+
+}  // namespace radiosity
+
+namespace radiosity {
+
+RefinedMesh refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh) {
+  const ObjectPatches& obj = pm.objects.at(object);
+  RefinedMesh refined = refine_mesh(mesh, obj.level);
+  bool mirrored = glm::determinant(glm::dmat3(mesh.transform)) < 0;
+  if (int(refined.positions.size()) != obj.vertex_end - obj.vertex_begin ||
+      int(refined.quads.size()) != obj.patch_end - obj.patch_begin || mirrored != obj.mirrored)
+    throw std::invalid_argument("object '" + mesh.name +
+                                "': its topology or handedness changed; it must be added anew");
+  return refined;
+}
+
+void place_object(PatchMesh& pm, int object, const MeshDesc& mesh, const RefinedMesh& refined) {
+  ObjectPatches& obj = pm.objects.at(object);
+  std::vector<dvec3> corner_normals = set_geometry(pm, mesh, refined, obj);
+  place_points(pm, corner_normals.data(), 4 * obj.patch_begin, obj.point_begin, obj.point_end);
 }
 
 }  // namespace radiosity

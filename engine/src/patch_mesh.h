@@ -4,6 +4,7 @@
 
 #include "radiosity/scene.h"
 #include "radiosity/settings.h"
+#include "refine.h"
 
 #include <array>
 #include <vector>
@@ -31,6 +32,10 @@ struct ReceiverPoint {
 struct ObjectPatches {
   int patch_begin = 0, patch_end = 0;
   int point_begin = 0, point_end = 0;
+  int vertex_begin = 0, vertex_end = 0;
+  int level = 0;          // bilinear levels it was refined with: a moved object keeps its patches
+  int degenerate = 0;     // zero-area patches
+  bool mirrored = false;  // transform flips handedness
   std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place
 };
 
@@ -48,5 +53,12 @@ struct PatchMesh {
 };
 
 PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings);
+
+// Moving or deforming one object in place, in two steps so a bad change is refused before anything
+// changes: `mesh` (new transform or positions) must refine to the same patches as before, else
+// std::invalid_argument; then the object's vertices, patches and points take the new places (their
+// indices stay).
+RefinedMesh refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh);
+void place_object(PatchMesh& pm, int object, const MeshDesc& mesh, const RefinedMesh& refined);
 
 }  // namespace radiosity

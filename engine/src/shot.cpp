@@ -13,6 +13,13 @@ constexpr double kPi = 3.14159265358979323846;
 
 bool is_zero(const dvec3& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
 
+// Cache keys: a patch's cells (as many per side as a shot asks for, at most 64) per side; a node per side.
+constexpr long long kMaxCellsPerSide = 64;
+long long cell_key(int patch, int cells_per_side, int side) {
+  return (kMaxCellsPerSide * patch + cells_per_side) * 2 + side;
+}
+long long member_key(int node, int side) { return 2LL * node + side; }
+
 // Copies a shooter's subtree into a shot. Radiance is interpolated or averaged only over what the
 // sample point sees: a patch or cluster running under a wall would otherwise carry light from the
 // lit room into the dark one. What a sample sees of its own shooter does not change while the
@@ -75,7 +82,7 @@ struct ShotBuilder {
       bool any = false;
       for (int i = n.begin; i < n.end && !any; ++i) any = !is_zero(mean_unshot(tree.order[i]));
       if (!any) continue;
-      const std::vector<uint8_t>& seen = cached(cache->member, 2LL * node + side, [&](std::vector<uint8_t>& out) {
+      const std::vector<uint8_t>& seen = cached(cache->member, member_key(node, side), [&](std::vector<uint8_t>& out) {
             for (int i = n.begin; i < n.end; ++i) {
               const Patch& p = mesh.patches[tree.order[i]];
               out.push_back(&p == &anchor || sees(anchor.centre, anchor.normal, p.centre, p.normal, side));
@@ -86,7 +93,7 @@ struct ShotBuilder {
       for (int i = n.begin; i < n.end; ++i) {
         const Patch& p = mesh.patches[tree.order[i]];
         dvec3 mean = mean_unshot(tree.order[i]);
-        if (is_zero(mean) || seen[i - n.begin]) {
+        if (seen[i - n.begin]) {
           power += p.area * mean;
           area += p.area;
         }
@@ -109,7 +116,7 @@ struct ShotBuilder {
         bool any = false;
         for (int c = 0; c < 4; ++c) any |= !is_zero(unshot[p][c * 2 + s]);
         if (!any) continue;
-        seen[s] = &cached(cache->cell, (64LL * p + k) * 2 + s, [&](std::vector<uint8_t>& out) {
+        seen[s] = &cached(cache->cell, cell_key(p, k, s), [&](std::vector<uint8_t>& out) {
           for (const Cell& cell : cells) {
             uint8_t bits = 0;
             for (int c = 0; c < 4; ++c) {
@@ -133,7 +140,7 @@ struct ShotBuilder {
             double total = 0.0;
             for (int c = 0; c < 4; ++c) {
               const dvec3& value = unshot[p][c * 2 + s];
-              if (!is_zero(value) && !(bits & (1 << c))) continue;
+              if (!(bits & (1 << c))) continue;  // by visibility alone: linear in the radiance
               sum += weight[c] * value;
               total += weight[c];
             }
@@ -147,6 +154,14 @@ struct ShotBuilder {
 };
 
 }  // namespace
+
+void ShotCache::forget(const std::vector<int>& patches, int node_begin, int node_end) {
+  for (int p : patches)
+    for (int k = 1; k < kMaxCellsPerSide; ++k)
+      for (int side = 0; side < 2; ++side) cell.erase(cell_key(p, k, side));
+  for (int node = node_begin; node < node_end; ++node)
+    for (int side = 0; side < 2; ++side) member.erase(member_key(node, side));
+}
 
 Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, ShotCache* cache,
                   int node, const std::vector<CornerUnshot>& unshot, int samples, double scale,
@@ -190,6 +205,25 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
   return shot;
 }
 
+bool same_light(const Shot& a, const Shot& b) {
+  if (a.elements.size() != b.elements.size() || a.cells.size() != b.cells.size()) return false;
+  for (size_t i = 0; i < a.elements.size(); ++i)
+    for (int side = 0; side < 2; ++side)
+      if (a.elements[i].radiance[side] != b.elements[i].radiance[side]) return false;
+  for (size_t i = 0; i < a.cells.size(); ++i)
+    for (int side = 0; side < 2; ++side)
+      if (a.cells[i].radiance[side] != b.cells[i].radiance[side]) return false;
+  return true;
+}
+
+Shot scaled(Shot shot, double scale) {
+  for (ShotElement& e : shot.elements)
+    for (dvec3& r : e.radiance) r *= scale;
+  for (ShotCell& c : shot.cells)
+    for (dvec3& r : c.radiance) r *= scale;
+  return shot;
+}
+
 namespace {
 
 // Disc approximation of a distant element (exact on the axis of a disc): the bare point kernel
@@ -213,7 +247,7 @@ constexpr double kExactCellRadii = 32.0;
 
 }  // namespace
 
-void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch) {
+void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone) {
   const dvec3& x = point.position;
   const dvec3& n = point.normal;
   int stack[128];
@@ -226,6 +260,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
         for (int c = e.cell_begin; c < e.cell_end; ++c) {
           const ShotCell& sc = shot.cells[c];
           const Cell& cell = sc.cell;
+          if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
           dvec3 d = cell.centre - x;
           if (glm::dot(d, d) > kExactCellRadii * kExactCellRadii * cell.radius * cell.radius) {
             far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, cell.area, sc.radiance, batch);
@@ -239,6 +274,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
         }
         continue;
       }
+      if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
       dvec3 d = e.centroid - x;
       if (e.flat && glm::dot(d, d) > shot.near_factor * shot.near_factor * e.radius * e.radius) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, e.projected_area, e.radiance, batch);

@@ -7,6 +7,7 @@
 // distant receiver sees the shooter through about `samples` rays.
 #pragma once
 
+#include "bounds.h"
 #include "cluster_tree.h"
 #include "radiosity/form_factor.h"
 #include "visibility.h"
@@ -48,6 +49,8 @@ struct Shot {
 struct ShotCache {
   std::unordered_map<long long, std::vector<uint8_t>> cell;    // (patch, cells per side, side)
   std::unordered_map<long long, std::vector<uint8_t>> member;  // (cluster node, side)
+  // Drops what was worked out for the patches in `patches` and the nodes [node_begin, node_end).
+  void forget(const std::vector<int>& patches, int node_begin, int node_end);
 };
 
 // The shot of cluster `node`, sending `scale` times its patches' unshot radiance. With `vis`, a
@@ -56,7 +59,14 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
                   int node,
                   const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor);
 
-// Adds to the batch the rays carrying the shot's irradiance to receiving point `receiver`.
-void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch);
+// Whether two shots of one shooter send the same light (same samples, same radiance).
+bool same_light(const Shot& a, const Shot& b);
+// The same shot sending `scale` times its light.
+Shot scaled(Shot shot, double scale);
+
+// Adds to the batch the rays carrying the shot's irradiance to receiving point `receiver`; with
+// `zone`, only those that may pass through it (whole clusters and cells are passed over).
+void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch,
+            const Zone* zone = nullptr);
 
 }  // namespace radiosity

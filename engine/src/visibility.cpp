@@ -50,34 +50,104 @@ Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_o
   device_ = rtcNewDevice(nullptr);
   if (!device_) throw std::runtime_error("Embree device could not be created");
   top_ = rtcNewScene(device_);
+  rtcSetSceneFlags(top_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);  // occluded_without
+  objects_.resize(mesh.objects.size());
   for (size_t o = 0; o < mesh.objects.size(); ++o) {
     const ObjectPatches& obj = mesh.objects[o];
     if (obj.patch_end == obj.patch_begin) continue;
     RTCGeometry quads = make_quads(device_, mesh, obj);
-    if (o < dynamic_objects.size() && dynamic_objects[o]) {
-      RTCScene own = rtcNewScene(device_);
-      rtcAttachGeometry(own, quads);
-      rtcCommitScene(own);
-      RTCGeometry inst = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
-      rtcSetGeometryInstancedScene(inst, own);
-      const float identity[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
-      rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, identity);
-      rtcCommitGeometry(inst);
-      rtcAttachGeometry(top_, inst);
-      rtcReleaseGeometry(inst);
-      instanced_.push_back(own);
-    } else {
-      rtcAttachGeometry(top_, quads);
-    }
+    if (o < dynamic_objects.size() && dynamic_objects[o])
+      make_instance(objects_[o], quads);
+    else
+      objects_[o].geometry = rtcAttachGeometry(top_, quads);
     rtcReleaseGeometry(quads);
   }
   rtcCommitScene(top_);
 }
 
 Visibility::~Visibility() {
-  for (RTCScene s : instanced_) rtcReleaseScene(s);
+  for (Object& o : objects_)
+    for (RTCScene s : o.own)
+      if (s) rtcReleaseScene(s);
   rtcReleaseScene(top_);
   rtcReleaseDevice(device_);
+}
+
+RTCScene Visibility::new_object_scene() {
+  RTCScene scene = rtcNewScene(device_);
+  rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_LOW);  // rebuilt on every move
+  // Hits inside an instance reach the context filter only if its scene allows it (occluded_without).
+  rtcSetSceneFlags(scene, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
+  return scene;
+}
+
+void Visibility::make_instance(Object& o, RTCGeometry quads) {
+  o.own[0] = new_object_scene();
+  rtcAttachGeometry(o.own[0], quads);
+  rtcCommitScene(o.own[0]);
+  o.now = 0;
+  o.instance = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+  rtcSetGeometryInstancedScene(o.instance, o.own[0]);
+  const float identity[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+  rtcSetGeometryTransform(o.instance, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, identity);
+  rtcCommitGeometry(o.instance);
+  o.geometry = rtcAttachGeometry(top_, o.instance);
+  rtcReleaseGeometry(o.instance);
+}
+
+void Visibility::move_object(int object, const PatchMesh& mesh) {
+  Object& o = objects_.at(object);
+  if (o.geometry == RTC_INVALID_GEOMETRY_ID) return;
+  if (!o.instance) {
+    RTCGeometry quads = rtcGetGeometry(top_, o.geometry);
+    rtcRetainGeometry(quads);
+    rtcDetachGeometry(top_, o.geometry);
+    make_instance(o, quads);
+    rtcReleaseGeometry(quads);
+  }
+  int next = 1 - o.now;
+  if (o.own[next]) rtcReleaseScene(o.own[next]);
+  o.own[next] = new_object_scene();
+  RTCGeometry quads = make_quads(device_, mesh, mesh.objects[object]);
+  rtcAttachGeometry(o.own[next], quads);
+  rtcReleaseGeometry(quads);
+  rtcCommitScene(o.own[next]);
+  o.now = next;
+  rtcSetGeometryInstancedScene(o.instance, o.own[next]);
+  rtcCommitGeometry(o.instance);
+  rtcCommitScene(top_);
+}
+
+void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigned count) const {
+  const Object& o = objects_.at(object);
+  RTCScene scene = o.own[before_move ? 1 - o.now : o.now];
+  if (!scene) return;
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  rtcOccluded1M(scene, &context, rays, count, sizeof(RTCRay));
+}
+
+namespace {
+
+struct ExcludingContext {
+  RTCIntersectContext context;  // first: Embree hands the filter a pointer to it
+  unsigned excluded;            // instance geometry id in the top-level scene
+};
+
+void skip_excluded(const RTCFilterFunctionNArguments* args) {
+  unsigned excluded = reinterpret_cast<const ExcludingContext*>(args->context)->excluded;
+  for (unsigned i = 0; i < args->N; ++i)
+    if (args->valid[i] == -1 && RTCHitN_instID(args->hit, args->N, i, 0) == excluded) args->valid[i] = 0;
+}
+
+}  // namespace
+
+void Visibility::occluded_without(int object, RTCRay* rays, unsigned count) const {
+  ExcludingContext ctx;
+  rtcInitIntersectContext(&ctx.context);
+  ctx.context.filter = skip_excluded;
+  ctx.excluded = objects_.at(object).geometry;
+  rtcOccluded1M(top_, &ctx.context, rays, count, sizeof(RTCRay));
 }
 
 void Visibility::occluded(RTCRay* rays, unsigned count) const {
@@ -128,6 +198,7 @@ bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, cons
 
 void OcclusionBatch::push(int receiver, const dvec3& origin, const dvec3& dir, float tfar,
                           const dvec3& front, const dvec3& back) {
+  ++pushed_;
   rays_[count_] = make_ray(origin, dir, tfar);
   receiver_[count_] = receiver;
   carried_[count_][0] = front;
@@ -143,7 +214,8 @@ void OcclusionBatch::to_point(int receiver, const dvec3& x, const dvec3& n, cons
   dvec3 end = y + (glm::dot(target_normal, d) <= 0 ? eps : -eps) * target_normal;
   dvec3 dir = end - origin;
   double len = glm::length(dir);
-  if (len <= 2 * eps) {  // touching: nothing fits in between
+  if (len <= 2 * eps) {  // touching: nothing fits in between (nor moves in between)
+    if (changed_object_ >= 0) return;
     front_[receiver] += front;
     back_[receiver] += back;
     return;
@@ -157,9 +229,35 @@ void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, c
   push(receiver, x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, front, back);
 }
 
+unsigned OcclusionBatch::keep_changed() {
+  RTCRay before[kCapacity], now[kCapacity];
+  std::copy(rays_, rays_ + count_, before);
+  std::copy(rays_, rays_ + count_, now);
+  vis_.occluded_by(changed_object_, true, before, count_);
+  vis_.occluded_by(changed_object_, false, now, count_);
+  unsigned kept = 0;
+  for (unsigned i = 0; i < count_; ++i) {
+    bool blocked_before = before[i].tfar < 0, blocked_now = now[i].tfar < 0;
+    if (blocked_before == blocked_now) continue;
+    double sign = blocked_before ? 1.0 : -1.0;
+    rays_[kept] = rays_[i];
+    receiver_[kept] = receiver_[i];
+    carried_[kept][0] = sign * carried_[i][0];
+    carried_[kept][1] = sign * carried_[i][1];
+    ++kept;
+  }
+  traced_ += 2 * count_;
+  return kept;
+}
+
 void OcclusionBatch::flush() {
   if (count_ == 0) return;
-  vis_.occluded(rays_, count_);
+  if (changed_object_ >= 0) {
+    count_ = keep_changed();
+    vis_.occluded_without(changed_object_, rays_, count_);
+  } else {
+    vis_.occluded(rays_, count_);
+  }
   for (unsigned i = 0; i < count_; ++i)
     if (rays_[i].tfar >= 0) {
       front_[receiver_[i]] += carried_[i][0];

@@ -22,6 +22,15 @@ class Visibility {
   // Traces a stream of occlusion rays; an occluded ray comes back with tfar = -inf.
   void occluded(RTCRay* rays, unsigned count) const;
 
+  // An object moved or deformed: its new geometry (from `mesh`) replaces the old one, which is kept
+  // until the next move so an update can ask what the old one blocked. A static object becomes an
+  // instance on its first move (one rebuild of the scene's top level).
+  void move_object(int object, const PatchMesh& mesh);
+  // Rays against one moved object alone, as it is now or as it was before its last move.
+  void occluded_by(int object, bool before_move, RTCRay* rays, unsigned count) const;
+  // Rays against the whole scene except one moved object.
+  void occluded_without(int object, RTCRay* rays, unsigned count) const;
+
   // Whether points a and b of surfaces with normals na, nb see each other on the side the normals
   // point to. The ends are lifted off their surfaces by more than the surface can bulge between
   // them, so two points of one curved patch do not occlude each other.
@@ -36,9 +45,18 @@ class Visibility {
   double epsilon() const { return epsilon_; }
 
  private:
+  struct Object {
+    unsigned geometry = RTC_INVALID_GEOMETRY_ID;  // in top_: its quads, or its instance
+    RTCGeometry instance = nullptr;
+    RTCScene own[2] = {nullptr, nullptr};          // instanced geometry: now and before the last move
+    int now = 0;
+  };
+  RTCScene new_object_scene();
+  void make_instance(Object& o, RTCGeometry quads);
+
   RTCDevice device_ = nullptr;
   RTCScene top_ = nullptr;
-  std::vector<RTCScene> instanced_;
+  std::vector<Object> objects_;
   double epsilon_;
   struct Recording {
     std::mutex mutex;
@@ -51,9 +69,14 @@ class Visibility {
 
 // Collects occlusion rays with the irradiance each carries to a receiving point, traces them in
 // streams and adds what arrives unoccluded to the receivers' accumulators (front and back side).
+//
+// With `changed_object`, a batch carries only what that object's last move changed: a ray counts
+// with + if the object blocked it before and not now, - if the reverse, and only if nothing else
+// blocks it; a ray the object blocks both times, or neither, costs no trace of the full scene.
 class OcclusionBatch {
  public:
-  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back) : vis_(vis), front_(front), back_(back) {}
+  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object = -1)
+      : vis_(vis), front_(front), back_(back), changed_object_(changed_object) {}
   ~OcclusionBatch() { flush(); }
 
   // Segment from receiver point x (normal n) to target y; y is pulled off its own surface along
@@ -65,20 +88,24 @@ class OcclusionBatch {
                    const dvec3& back);
   void flush();
   long long rays_traced() const { return traced_; }
+  long long rays_pushed() const { return pushed_; }
 
  private:
   void push(int receiver, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& front,
             const dvec3& back);
+  unsigned keep_changed();  // leaves the rays the changed object's move made a difference to
 
   static constexpr unsigned kCapacity = 256;
   const Visibility& vis_;
   dvec3* front_;
   dvec3* back_;
+  int changed_object_;
   RTCRay rays_[kCapacity];
   int receiver_[kCapacity];
   dvec3 carried_[kCapacity][2];
   unsigned count_ = 0;
   long long traced_ = 0;
+  long long pushed_ = 0;
 };
 
 }  // namespace radiosity

@@ -18,6 +18,7 @@ struct SolveStats {
   long shots = 0;            // shots so far (lamps count as one)
   long long rays = 0;        // visibility rays so far
   int patches = 0, points = 0, shooters = 0;
+  long long touched_points = 0;  // last update(): receiving points whose light was recomputed
   bool converged = false;
   bool cancelled = false;
   std::vector<std::string> warnings;  // e.g. no light, degenerate faces dropped
@@ -44,6 +45,19 @@ class Solver {
   // cancel. A cancelled solve stops at the last complete shot: the state stays consistent.
   const SolveStats& solve(const ProgressCallback& progress = {});
   void cancel();  // thread-safe: the running solve stops soon after
+
+  // Scene changes, applied by the next update(). Indices are the SceneDesc's. An object keeps its
+  // patches: a new transform or new positions must refine to the same topology (else
+  // std::invalid_argument from update()); an object that appears or vanishes needs a new Solver.
+  void set_transform(int object, const dmat4& transform);
+  void set_positions(int object, std::vector<dvec3> positions);
+  void set_material(int index, const Material& material);
+  void set_lamp(int index, const Lamp& lamp);  // same type as before
+  void set_world(const dvec3& radiance);
+  // Incremental update (the paper's negative and positive shooting): changes only what the pending
+  // changes affect, then shoots until the residual is below the threshold, as solve() does. Before
+  // the first solve() it just applies the changes. Cancelling stops the shooting, not the update.
+  const SolveStats& update(const ProgressCallback& progress = {});
   const SolveStats& stats() const;
   PowerBalance power_balance() const;
 

@@ -1,0 +1,36 @@
+// Bounding spheres, and the test an update uses to tell which rays a moved object may cross.
+#pragma once
+
+#include "radiosity/scene.h"
+
+#include <algorithm>
+
+namespace radiosity {
+
+struct Sphere {
+  dvec3 centre{0.0};
+  double radius = 0.0;
+};
+
+inline bool overlap(const Sphere& a, const Sphere& b) {
+  return glm::length(a.centre - b.centre) <= a.radius + b.radius;
+}
+
+// Whether a segment from x to some point of `target` may pass through `s`: every such segment lies
+// in the capsule of radius target.radius around the segment from x to target's centre.
+inline bool may_cross(const dvec3& x, const Sphere& target, const Sphere& s) {
+  dvec3 ab = target.centre - x;
+  double len2 = glm::dot(ab, ab);
+  double t = len2 > 0 ? std::clamp(glm::dot(s.centre - x, ab) / len2, 0.0, 1.0) : 0.0;
+  return glm::length(x + t * ab - s.centre) <= s.radius + target.radius;
+}
+
+// Where a moved object was and is: rays that pass through neither did not change.
+struct Zone {
+  Sphere before, after;
+  bool may_cross(const dvec3& x, const Sphere& target) const {
+    return radiosity::may_cross(x, target, before) || radiosity::may_cross(x, target, after);
+  }
+};
+
+}  // namespace radiosity

@@ -1,0 +1,217 @@
+// Incremental updates: the paper's negative and positive shooting (sec. 3) with shadow zones (sec. 5).
+//
+// Radiosity is linear in the light sent, so a change is undone and redone by signed gathers that
+// restore the solver's invariant (solver_impl.h) for the new scene; the unshot radiance those leave
+// (positive or negative) is then shot as in a solve, to the same threshold. When an object moves:
+//  - its own shooters (emission and what it has reflected) shoot negative from the old place and
+//    positive from the new one, to every other receiving point;
+//  - its own receiving points gather everything anew;
+//  - every other pair of source and receiver gathers only the rays the move changed: a ray counts +
+//    where the object blocked it before and not now (the exit zone), - where the reverse (the enter
+//    zone), and nothing where it blocks both times or neither (the stay zone). Pairs whose rays
+//    cannot pass near the object, old or new (a capsule test, the paper's cone test), cost nothing.
+#include "solver_impl.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace radiosity {
+
+namespace {
+
+// Around the object's vertices, before (mesh) or after (refined and transformed) a move.
+Sphere bounds_of(const std::vector<dvec3>& points, double margin) {
+  dvec3 lo(INFINITY), hi(-INFINITY);
+  for (const dvec3& p : points) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  Sphere s{0.5 * (lo + hi), 0.0};
+  for (const dvec3& p : points) s.radius = std::max(s.radius, glm::length(p - s.centre));
+  s.radius += margin;
+  return s;
+}
+
+}  // namespace
+
+const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
+  auto start = std::chrono::steady_clock::now();
+  cancel_requested = false;
+  stats.cancelled = false;
+  touched.assign(mesh.points.size(), 0);
+  Pending changes = std::move(pending);
+  pending = Pending();
+  // Refuse a bad change before anything moves: the state stays as it was.
+  SceneDesc next = scene;
+  for (const auto& [o, m] : changes.meshes) next.meshes.at(o) = m;
+  for (const auto& [i, m] : changes.materials) next.materials.at(i) = m;
+  for (const auto& [i, l] : changes.lamps) next.lamps.at(i) = l;
+  if (changes.world) next.world = *changes.world;
+  next.validate();
+  std::map<int, RefinedMesh> refined;
+  for (const auto& [o, m] : changes.meshes) refined[o] = refine_object(mesh, o, m);
+
+  if (!injected) {  // nothing gathered yet: the first solve will see the new scene
+    for (const auto& [o, m] : changes.meshes) place(o, m, refined[o]);
+    scene = std::move(next);
+    stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return stats;
+  }
+  if (changes.world) change_world(*changes.world);
+  for (const auto& [i, l] : changes.lamps) change_lamp(i, l);
+  for (const auto& [i, m] : changes.materials) change_material(i, m);
+  for (const auto& [o, m] : changes.meshes) change_object(o, m, refined[o]);
+  stats.touched_points = std::count(touched.begin(), touched.end(), 1);
+  propagate(progress);
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return stats;
+}
+
+// The gathers of an update are not cancellable: half of one would break the invariant.
+namespace {
+constexpr bool kWhole = false;
+}
+
+void Solver::Impl::change_world(const dvec3& world) {
+  Source delta = world_source(world - scene.world, settings.samples_direct);
+  gather_all([](int) { return true; }, [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
+             [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { delta.gather(i, p, batch); }, kWhole);
+  apply_delta();
+  scene.world = world;
+  touched.assign(mesh.points.size(), 1);
+}
+
+void Solver::Impl::change_lamp(int index, const Lamp& lamp) {
+  std::vector<Source> sources;
+  for (double sign : {-1.0, 1.0}) {
+    Lamp l = sign < 0 ? scene.lamps[index] : lamp;
+    l.position -= mesh.origin;
+    l.color *= sign;
+    sources.push_back(lamp_source(l, settings.samples_direct, settings.near_factor));
+  }
+  gather_all([](int) { return true; }, [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
+             [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+               for (const Source& s : sources) s.gather(i, p, batch);
+             },
+             kWhole);
+  apply_delta();
+  scene.lamps[index] = lamp;
+  touched.assign(mesh.points.size(), 1);
+}
+
+void Solver::Impl::change_material(int index, const Material& m) {
+  Material old = scene.materials[index];
+  scene.materials[index] = m;
+  // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did.
+  dvec3 rho = m.reflectance - old.reflectance;
+  dvec3 emission = m.emission - old.emission;
+  std::vector<CornerUnshot> emitted(mesh.patches.size());
+  for (size_t p = 0; p < mesh.patches.size(); ++p) {
+    const Patch& patch = mesh.patches[p];
+    emitted[p].fill(dvec3(0.0));
+    if (patch.material != index || patch.area == 0) continue;
+    emitted[p].fill(emission);
+    for (int c = 0; c < 4; ++c) {
+      unshot[p][2 * c] += rho * front[patch.point[c]];
+      unshot[p][2 * c + 1] += rho * back[patch.point[c]];
+      touched[patch.point[c]] = 1;
+    }
+  }
+  // Emitted light: the difference, shot like all emission.
+  std::vector<Source> sources = patch_sources(emitted, settings.samples_direct, 1.0, nullptr);
+  if (sources.empty()) return;
+  touched.assign(mesh.points.size(), 1);
+  gather_all([](int) { return true; }, [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
+             [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+               for (const Source& s : sources) s.gather(i, p, batch);
+             },
+             kWhole);
+  apply_delta();
+}
+
+void Solver::Impl::place(int object, const MeshDesc& m, const RefinedMesh& refined) {
+  scene.meshes[object] = m;
+  place_object(mesh, object, m, refined);
+  tree.refit(mesh, object);
+  vis->move_object(object, mesh);
+}
+
+void Solver::Impl::forget_shooter(int s) {
+  const ClusterNode& n = tree.nodes[shooters[s]];
+  std::vector<int> patches(tree.order.begin() + n.begin, tree.order.begin() + n.end);
+  shot_cache.forget(patches, shooters[s], shooters[s] + 2 * (n.end - n.begin) - 1);  // see ClusterTree
+}
+
+void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMesh& refined) {
+  const ObjectPatches& o = mesh.objects[object];
+  double margin = 2 * vis->epsilon();
+  Sphere before = bounds_of({mesh.vertices.begin() + o.vertex_begin, mesh.vertices.begin() + o.vertex_end}, margin);
+  std::vector<dvec3> moved;
+  for (const dvec3& p : refined.positions) moved.push_back(dvec3(m.transform * glm::dvec4(p, 1.0)) - mesh.origin);
+  Sphere after = bounds_of(moved, margin);
+  Zone zone{before, after};
+
+  // The object's own shooters, and those near enough for it to come between their own parts (what
+  // a shooter's samples see of itself is cached, and shapes the light it sends).
+  std::vector<char> own(shooters.size(), 0), near(shooters.size(), 0);
+  for (size_t s = 0; s < shooters.size(); ++s) {
+    const ClusterNode& n = tree.nodes[shooters[s]];
+    own[s] = mesh.patches[tree.order[n.begin]].object == object;
+    near[s] = !own[s] && (overlap({n.centroid, n.radius}, before) || overlap({n.centroid, n.radius}, after));
+  }
+  auto on_object = [&](int i) { return i >= o.point_begin && i < o.point_end; };
+  auto elsewhere = [&](int i) { return !on_object(i); };
+  auto plain = [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); };
+  auto gather_from = [](const std::vector<Source>& sources) {
+    return [&sources](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+      for (const Source& s : sources) s.gather(i, p, batch);
+    };
+  };
+  auto sources_of = [&](double sign, const std::vector<char>* only) {
+    std::vector<Source> s = direct_sources(sign, only);
+    for (Source& r : reflected_sources(sign, only)) s.push_back(std::move(r));
+    return s;
+  };
+
+  // What the object's shooters sent, taken back from where it was. The rest, as they shoot now.
+  gather_all(elsewhere, plain, gather_from(sources_of(-1.0, &own)), kWhole);
+  apply_delta();
+  std::vector<Source> others = sources_of(1.0, nullptr);
+  std::vector<Source> near_before = sources_of(1.0, &near);
+
+  place(object, m, refined);
+  for (size_t s = 0; s < shooters.size(); ++s)
+    if (own[s] || near[s]) forget_shooter(int(s));
+
+  // Sent again from where it is; and a near shooter whose light the move changed, sent anew.
+  std::vector<Source> resent = sources_of(1.0, &own);
+  std::vector<Source> near_after = sources_of(1.0, &near);
+  for (size_t k = 0; k < near_after.size(); ++k)
+    if (!same_light(near_before[k].shot, near_after[k].shot)) {
+      resent.push_back(std::move(near_after[k]));
+      near_before[k].shot = scaled(std::move(near_before[k].shot), -1.0);
+      resent.push_back(std::move(near_before[k]));
+    }
+  gather_all(elsewhere, plain, gather_from(resent), kWhole);
+  apply_delta();
+
+  // Everything else: only the rays the move changed, for receivers and sources it may stand between.
+  gather_all(elsewhere, [&] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), object); },
+             [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+               long long pushed = batch.rays_pushed();
+               for (const Source& s : others)
+                 if (s.shooter < 0 || !own[s.shooter]) s.gather(i, p, batch, &zone);
+               if (batch.rays_pushed() > pushed) touched[i] = 1;
+             },
+             kWhole);
+  apply_delta();
+
+  // The object's own receiving points: everything, anew.
+  gather_all(on_object, plain, gather_from(sources_of(1.0, nullptr)), kWhole);
+  for (int i = o.point_begin; i < o.point_end; ++i) {
+    delta_front[i] -= front[i];
+    delta_back[i] -= back[i];
+    touched[i] = 1;
+  }
+  apply_delta();
+}
+
+}  // namespace radiosity

@@ -1,0 +1,128 @@
+// The solver's state, shared by the shooting loop (solver.cpp) and incremental updates
+// (dynamic_update.cpp).
+//
+// Invariant: front/back hold, per receiving point, everything gathered so far: the direct light of
+// the current lamps, world and emitters, plus every shooter's `shot` radiance (the total it has sent)
+// through the current geometry. `unshot` is what patches reflected and have not sent yet. An update
+// restores the invariant for the changed scene with a few signed gathers; shooting then goes on.
+#pragma once
+
+#include "radiosity/solver.h"
+
+#include "cluster_tree.h"
+#include "patch_mesh.h"
+#include "shot.h"
+#include "source.h"
+#include "visibility.h"
+
+#include <atomic>
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace radiosity {
+
+constexpr int kParallelMinimum = 256;  // receiving points worth a second thread
+
+struct Solver::Impl {
+  SceneDesc scene;
+  Settings settings;
+  PatchMesh mesh;
+  ClusterTree tree;
+  std::unique_ptr<Visibility> vis;
+  std::vector<int> shooters;       // cluster nodes
+  std::vector<int> patch_shooter;  // patch -> index in shooters
+  mutable ShotCache shot_cache;  // filled as shots are built
+
+  std::vector<dvec3> front, back;      // accumulated H per point and side
+  std::vector<CornerUnshot> unshot;    // per patch
+  std::vector<CornerUnshot> shot;      // per patch: all it has sent so far
+  std::vector<dvec3> delta_front, delta_back;  // a gather in flight, discarded if cancelled
+  bool injected = false;
+  double injected_power = 0.0;
+  double reference_power = 0.0;  // unshot power right after injection: the residual's scale
+  std::atomic<bool> cancel_requested{false};
+  SolveStats stats;
+
+  // Changes waiting for update().
+  struct Pending {
+    std::map<int, MeshDesc> meshes;
+    std::map<int, Material> materials;
+    std::map<int, Lamp> lamps;
+    std::optional<dvec3> world;
+  } pending;
+
+  Impl(SceneDesc s, const Settings& st);
+
+  const Material& material(int patch) const { return scene.materials[mesh.patches[patch].material]; }
+
+  // Gathers into delta_* for every receiving point `wanted(i)` accepts, on all cores, in `batch_for`
+  // batches (one per thread). False if cancelled part-way (only when `cancellable`).
+  template <class Wanted, class MakeBatch, class Gather>
+  bool gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& gather_one, bool cancellable = true);
+  template <class Gather>
+  bool gather_all(Gather&& gather_one) {
+    return gather_all([](int) { return true; },
+                      [this]() { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
+                      gather_one);
+  }
+  // Adds the gathered delta to the solution and, reflected, to the unshot radiance.
+  void apply_delta();
+
+  // Sources of a gather, `scale` times their strength: everything, or only the shooters `only`
+  // marks (one flag per shooter).
+  // Direct: lamps and the world (not with `only`) and emitting patches, at samples_direct.
+  std::vector<Source> direct_sources(double scale = 1.0, const std::vector<char>* only = nullptr) const;
+  // Reflected: what each shooter has sent so far (`shot`), through the geometry as it is now.
+  std::vector<Source> reflected_sources(double scale = 1.0, const std::vector<char>* only = nullptr) const;
+  // Shots of per-patch radiance `radiance` from the shooters where it is not zero.
+  std::vector<Source> patch_sources(const std::vector<CornerUnshot>& radiance, int samples, double scale,
+                                    const std::vector<char>* only) const;
+
+  bool inject();
+  std::vector<double> shooter_power() const;
+  bool shoot(int s);
+  void propagate(const ProgressCallback& progress);  // shoots until the residual is below threshold
+  const SolveStats& solve(const ProgressCallback& progress);
+
+  // dynamic_update.cpp
+  const SolveStats& update(const ProgressCallback& progress);
+  void change_world(const dvec3& world);
+  void change_lamp(int index, const Lamp& lamp);
+  void change_material(int index, const Material& material);
+  void change_object(int object, const MeshDesc& mesh, const RefinedMesh& refined);
+  std::vector<char> touched;  // per point: its light was recomputed by this update
+  void place(int object, const MeshDesc& mesh, const RefinedMesh& refined);  // geometry only
+  void forget_shooter(int s);  // its cached views of itself
+
+  dvec3 corner_value(int slot) const;
+};
+
+template <class Wanted, class MakeBatch, class Gather>
+bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& gather_one, bool cancellable) {
+  delta_front.assign(mesh.points.size(), dvec3(0.0));
+  delta_back.assign(mesh.points.size(), dvec3(0.0));
+  long long rays = 0;
+  int count = int(mesh.points.size());
+  auto cancelled = [&] { return cancellable && cancel_requested.load(std::memory_order_relaxed); };
+  // Small scenes stay on one thread: thousands of tiny parallel regions lose to spinning barriers,
+  // badly so when Blender or another process holds the other cores.
+#pragma omp parallel reduction(+ : rays) if (count > kParallelMinimum)
+  {
+    OcclusionBatch batch = batch_for();
+#pragma omp for schedule(dynamic, 32)
+    for (int i = 0; i < count; ++i) {
+      if (cancelled()) continue;
+      const ReceiverPoint& p = mesh.points[i];
+      if (p.normal == dvec3(0.0) || !wanted(i)) continue;
+      gather_one(i, p, batch);
+    }
+    batch.flush();
+    rays += batch.rays_traced();
+  }
+  stats.rays += rays;
+  return !cancelled();
+}
+
+}  // namespace radiosity

@@ -1,0 +1,72 @@
+#include "source.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace radiosity {
+
+namespace {
+
+// Whether some ray from x towards the sun may pass through `s`.
+bool sun_may_cross(const Lamp& sun, const dvec3& x, const Sphere& s) {
+  dvec3 v = s.centre - x;
+  double d = glm::length(v);
+  if (d <= s.radius) return true;
+  double to_sun = std::acos(std::clamp(-glm::dot(v, glm::normalize(sun.direction)) / d, -1.0, 1.0));
+  return to_sun <= 0.5 * sun.angle + std::asin(s.radius / d);
+}
+
+}  // namespace
+
+void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone) const {
+  const dvec3& x = point.position;
+  switch (kind) {
+    case Kind::Lamp:
+      if (zone && (lamp.type == Lamp::Type::Sun
+                       ? !sun_may_cross(lamp, x, zone->before) && !sun_may_cross(lamp, x, zone->after)
+                       : !zone->may_cross(x, bounds)))
+        return;
+      gather_lamp(lamp, samples, receiver, point, batch);
+      break;
+    case Kind::World:  // rays leave every point in every direction
+      gather_world(world, samples, receiver, point, batch);
+      break;
+    case Kind::Shot:
+      if (zone && !zone->may_cross(x, bounds)) return;
+      radiosity::gather(shot, receiver, point, batch, zone);
+      break;
+  }
+}
+
+Source lamp_source(const Lamp& lamp, int samples, double near_factor) {
+  Source s;
+  s.lamp = lamp;
+  s.samples = samples;
+  s.bounds = {lamp.position, lamp.radius};
+  if (lamp.type == Lamp::Type::Rect || lamp.type == Lamp::Type::Disc) {
+    s.kind = Source::Kind::Shot;
+    s.shot = area_lamp_shot(lamp, samples, near_factor);
+    // A disc is shot as a polygon a little wider than its radius.
+    s.bounds.radius = 1.5 * std::max(lamp.radius, glm::length(lamp.u_axis) + glm::length(lamp.v_axis));
+  }
+  return s;
+}
+
+Source world_source(const dvec3& radiance, int samples) {
+  Source s;
+  s.kind = Source::Kind::World;
+  s.world = radiance;
+  s.samples = samples;
+  return s;
+}
+
+Source shot_source(Shot shot, int shooter, const Sphere& bounds) {
+  Source s;
+  s.kind = Source::Kind::Shot;
+  s.shot = std::move(shot);
+  s.shooter = shooter;
+  s.bounds = bounds;
+  return s;
+}
+
+}  // namespace radiosity

@@ -1,0 +1,30 @@
+// What one gather pass collects light from: a lamp, the world, or a shot (an area lamp, or patches
+// emitting or reflecting), with the bounds of where its rays go. An update uses the bounds to find
+// the receiving points a moved object could stand between: the paper's shadow zones (sec. 5).
+#pragma once
+
+#include "bounds.h"
+#include "lights.h"
+#include "shot.h"
+
+namespace radiosity {
+
+struct Source {
+  enum class Kind { Lamp, World, Shot } kind = Kind::Lamp;
+  Lamp lamp;           // point, spot or sun (area lamps are shots); in the patch mesh's frame
+  dvec3 world{0.0};    // Kind::World: uniform sky radiance
+  Shot shot;
+  int samples = 0;     // lamps and world
+  int shooter = -1;    // the shooter (cluster) whose patches shoot; -1 for lamps and the world
+  Sphere bounds;       // holds every finite ray end (not used by suns and the world)
+
+  // With `zone`, only the rays that may pass through it.
+  void gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone = nullptr) const;
+};
+
+// `lamp` in the patch mesh's frame; rectangle and disc lamps become shots.
+Source lamp_source(const Lamp& lamp, int samples, double near_factor);
+Source world_source(const dvec3& radiance, int samples);
+Source shot_source(Shot shot, int shooter, const Sphere& bounds);
+
+}  // namespace radiosity

@@ -1,0 +1,183 @@
+"""Incremental updates (Solver.set_* + update) against fresh solves of the changed scene."""
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from scenes import Mesh, ROOM_STATE, changing_room, cube_positions, engine  # noqa: E402
+
+CUBE_MATERIAL, LAMP_MATERIAL, LAMP_RHO = 4, 3, (0.78, 0.78, 0.78)
+
+
+def settings(preset, threshold=None):
+    s = engine.Settings.preset(preset)
+    if threshold:
+        s.threshold = threshold
+    return s
+
+
+def values(solver, ids):
+    return np.concatenate([solver.refined(i)[1] for i in ids])
+
+
+def relative_rms(a, b):
+    return np.sqrt(np.mean((a - b) ** 2)) / np.mean(b)
+
+
+def fresh(state, s, patch_size):
+    scene, ids, _ = changing_room(state, patch_size)
+    solver = engine.Solver(scene, s)
+    solver.solve()
+    return values(solver, ids)
+
+
+def translation(offset):
+    t = np.eye(4)
+    t[:3, 3] = offset
+    return t
+
+
+# Each step: the change as set_* calls, and the state a fresh solve is built from.
+STEPS = [
+    ("move", dict(cube=(0.0, -0.2, 0.3)), lambda s, cube: s.set_transform(cube, translation((0.0, -0.2, 0.3)))),
+    ("deform", dict(cube_scale=(1.0, 1.0, 0.6)),
+     lambda s, cube: s.set_positions(cube, cube_positions((1.0, 1.0, 0.6))[0])),
+    ("reflectance", dict(cube_rho=(0.9, 0.2, 0.1)),
+     lambda s, cube: s.set_material(CUBE_MATERIAL, (0.9, 0.2, 0.1))),
+    ("emission", dict(lamp_emission=9.0), lambda s, cube: s.set_material(LAMP_MATERIAL, LAMP_RHO, (9.0,) * 3)),
+    ("lamp", dict(point=((-0.5, 0.2, 1.2), (1.0, 4.0, 2.0))),
+     lambda s, cube: s.set_point_light(0, (-0.5, 0.2, 1.2), (1.0, 4.0, 2.0), 0.05)),
+    ("world", dict(world=(0.2, 0.1, 0.0)), lambda s, cube: s.set_world((0.2, 0.1, 0.0))),
+    ("all at once", dict(cube=(0.3, -0.4, 0.5), cube_scale=(1.0, 1.0, 1.0), lamp_emission=15.0, world=(0.05, 0.05, 0.08)),
+     lambda s, cube: (s.set_transform(cube, translation((0.3, -0.4, 0.5))), s.set_positions(cube, cube_positions()[0]),
+                      s.set_material(LAMP_MATERIAL, LAMP_RHO, (15.0,) * 3), s.set_world((0.05, 0.05, 0.08)))),
+]
+
+
+@pytest.mark.parametrize("preset, threshold, patch_size, bound", [
+    # The issue's check: the default preset's sampling and threshold (coarser patches to stay quick).
+    ("default", None, 0.35, 0.01),
+    # Converged tightly, the two agree far closer. Not exactly: a fresh solve builds the cube's
+    # cluster tree anew where the update keeps (and refits) the old one; a one-patch object agrees
+    # to 1e-6 (test_single_patch_object_agrees_exactly).
+    ("draft", 1e-4, 0.35, 0.002),
+])
+def test_every_kind_of_change_matches_a_fresh_solve(preset, threshold, patch_size, bound):
+    s = settings(preset, threshold)
+    scene, ids, cube = changing_room(ROOM_STATE, patch_size)
+    solver = engine.Solver(scene, s)
+    solver.solve()
+    state = dict(ROOM_STATE)
+    for name, change, apply in STEPS:
+        state.update(change)
+        apply(solver, cube)
+        stats = solver.update()
+        assert stats["converged"] and stats["residual"] <= s.threshold, name
+        got = values(solver, ids)
+        assert np.isfinite(got).all() and got.min() >= 0, name
+        error = relative_rms(got, fresh(state, s, patch_size))
+        assert error <= bound, f"{name}: {error:.4%} from a fresh solve"
+
+
+def plate_room(offset):
+    scene, ids, _ = changing_room(ROOM_STATE, patch_size=0.35)
+    m = scene.add_material((0.6, 0.6, 0.6))
+    plate = Mesh()
+    plate.add_face([(-0.2, -0.2, 0), (0.2, -0.2, 0), (0.2, 0.2, 0), (-0.2, 0.2, 0)], m)
+    plate_id = plate.add_to(scene, transform=translation(offset), dynamic=True)
+    return scene, ids + [plate_id], plate_id
+
+
+def test_single_patch_object_agrees_exactly():
+    s = settings("draft", 1e-5)
+    scene, ids, plate = plate_room((0.2, 0.0, 1.0))
+    solver = engine.Solver(scene, s)
+    solver.solve()
+    solver.set_transform(plate, translation((-0.3, 0.2, 0.6)))
+    solver.update()
+    scene, ids2, _ = plate_room((-0.3, 0.2, 0.6))
+    reference = engine.Solver(scene, s)
+    reference.solve()
+    assert relative_rms(values(solver, ids), values(reference, ids2)) < 1e-4
+
+
+def test_a_thousand_move_and_undo_cycles_return_to_the_start():
+    scene = engine.Scene()
+    white = scene.add_material((0.7, 0.7, 0.7))
+    room = Mesh()
+    room.add_box((0, 0, 1), (2, 2, 2), white, inward=True)
+    room.add_to(scene)
+    plate = Mesh()
+    plate.add_face([(-0.3, -0.3, 0), (0.3, -0.3, 0), (0.3, 0.3, 0), (-0.3, 0.3, 0)], white)
+    plate_id = plate.add_to(scene, transform=translation((0, 0, 1)), dynamic=True)
+    scene.add_point_light((0.2, 0.3, 1.8), (5, 5, 5))
+    solver = engine.Solver(scene, settings("draft", 1e-9))
+    solver.solve()
+    start = values(solver, [0, plate_id])
+    moved = translation((0.4, -0.2, 0.7)) @ np.diag([1, 1, 1, 1.0])
+    for _ in range(1000):
+        solver.set_transform(plate_id, moved)
+        solver.update()
+        solver.set_transform(plate_id, translation((0, 0, 1)))
+        solver.update()
+    end = values(solver, [0, plate_id])
+    assert np.isfinite(end).all()
+    assert np.abs(end - start).max() <= 1e-5 * np.abs(start).max()
+
+
+def test_moving_a_small_object_costs_a_small_part_of_a_solve():
+    scene = engine.Scene()
+    white = scene.add_material((0.6, 0.6, 0.6))
+    room = Mesh()
+    room.add_box((0, 0, 1.5), (20, 20, 3), white, inward=True)
+    room.add_to(scene, refine="bilinear", patch_size=0.7)
+    ball = Mesh()
+    ball.add_box((0, 0, 0), (0.3, 0.3, 0.3), white)
+    ball_id = ball.add_to(scene, transform=translation((-7, -7, 0.5)), dynamic=True)
+    scene.add_point_light((-7, -7, 2.5), (20, 20, 20))
+    scene.add_point_light((7, 7, 2.5), (20, 20, 20))
+    solver = engine.Solver(scene, settings("draft"))
+    solve_rays = solver.solve()["rays"]
+    solver.set_transform(ball_id, translation((-7.2, -7, 0.5)))
+    stats = solver.update()
+    # Nearly every point sees the floor around the ball, so nearly every point is touched; but each
+    # gathers only the few cells and clusters whose rays may pass the ball.
+    assert 0 < stats["touched_points"] <= stats["points"]
+    assert stats["rays"] - solve_rays < 0.1 * solve_rays
+
+
+def test_bad_changes_are_refused_and_leave_the_solution():
+    scene, ids, cube = changing_room(ROOM_STATE)
+    solver = engine.Solver(scene, settings("draft"))
+    solver.solve()
+    before = values(solver, ids)
+    bad = translation((0, 0, 0))
+    bad[0, 3] = math.nan
+    solver.set_transform(cube, bad)
+    with pytest.raises(ValueError, match="NaN"):
+        solver.update()
+    with pytest.raises(ValueError, match="5 positions for 24 vertices"):
+        solver.set_positions(cube, cube_positions()[0][:5])
+    solver.set_material(CUBE_MATERIAL, (1.0, 0.5, 0.5))
+    with pytest.raises(ValueError, match="reflectance"):
+        solver.update()
+    with pytest.raises(ValueError, match="type"):
+        solver.set_sun_light(0, (0, 0, -1), (1, 1, 1))
+    assert np.array_equal(values(solver, ids), before)
+    assert solver.update()["converged"]  # nothing pending: nothing changes
+
+
+def test_changes_before_the_first_solve_are_just_applied():
+    s = settings("draft")
+    scene, ids, plate = plate_room((0.2, 0.0, 1.0))
+    solver = engine.Solver(scene, s)
+    solver.set_transform(plate, translation((-0.3, 0.2, 0.6)))
+    solver.update()
+    solver.solve()
+    scene, ids2, _ = plate_room((-0.3, 0.2, 0.6))
+    reference = engine.Solver(scene, s)
+    reference.solve()
+    assert relative_rms(values(solver, ids), values(reference, ids2)) < 1e-6
