@@ -236,7 +236,7 @@ void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centr
   const dvec3& rad = radiance[cos_s <= 0 ? 0 : 1];
   double cos_r = glm::dot(n, d);
   if (is_zero(rad) || cos_r == 0) return;
-  dvec3 irradiance = rad * (std::fabs(cos_s * cos_r) / r2 * area / (kPi * r2 + area));
+  dvec3 irradiance = rad * (std::fabs(cos_s * cos_r) * area / (r2 * (kPi * r2 + area)));  // one division
   bool front = cos_r > 0;
   batch.to_point(receiver, x, n, target, normal, front ? irradiance : dvec3(0.0), front ? dvec3(0.0) : irradiance);
 }

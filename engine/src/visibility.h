@@ -12,6 +12,20 @@
 
 namespace radiosity {
 
+// An occlusion ray from origin along dir, up to tfar times dir.
+inline RTCRay make_ray(const dvec3& origin, const dvec3& dir, float tfar) {
+  RTCRay r;
+  r.org_x = float(origin.x), r.org_y = float(origin.y), r.org_z = float(origin.z);
+  r.dir_x = float(dir.x), r.dir_y = float(dir.y), r.dir_z = float(dir.z);
+  r.tnear = 0.0f;
+  r.tfar = tfar;
+  r.time = 0.0f;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+  return r;
+}
+
 class Visibility {
  public:
   Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects);
@@ -80,9 +94,22 @@ class OcclusionBatch {
   ~OcclusionBatch() { flush(); }
 
   // Segment from receiver point x (normal n) to target y; y is pulled off its own surface along
-  // target_normal, towards x.
+  // target_normal, towards x. Inline: it runs once per ray, between the form factors.
   void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal,
-                const dvec3& front, const dvec3& back);
+                const dvec3& front, const dvec3& back) {
+    double eps = vis_.epsilon();
+    dvec3 d = y - x;
+    dvec3 origin = x + (glm::dot(n, d) >= 0 ? eps : -eps) * n;
+    dvec3 end = y + (glm::dot(target_normal, d) <= 0 ? eps : -eps) * target_normal;
+    dvec3 dir = end - origin;
+    if (glm::dot(dir, dir) <= 4 * eps * eps) {  // touching: nothing fits (nor moves) in between
+      if (changed_object_ >= 0) return;
+      front_[receiver] += front;
+      back_[receiver] += back;
+      return;
+    }
+    push(receiver, origin, dir, kSegment, front, back);
+  }
   // Ray from x to infinity along dir (sun, sky).
   void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, const dvec3& front,
                    const dvec3& back);
@@ -91,8 +118,18 @@ class OcclusionBatch {
   long long rays_pushed() const { return pushed_; }
 
  private:
+  // A segment is pushed with tfar = kSegment; flush() shortens it to stop epsilon before its end.
+  static constexpr float kSegment = 1.0f;
+
   void push(int receiver, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& front,
-            const dvec3& back);
+            const dvec3& back) {
+    ++pushed_;
+    rays_[count_] = make_ray(origin, dir, tfar);
+    receiver_[count_] = receiver;
+    carried_[count_][0] = front;
+    carried_[count_][1] = back;
+    if (++count_ == kCapacity) flush();
+  }
   unsigned keep_changed();  // leaves the rays the changed object's move made a difference to
 
   static constexpr unsigned kCapacity = 256;
