@@ -12,13 +12,13 @@ bl_info = {
 
 if "bpy" in locals():                       # F8 / reload: re-import the submodules
     import importlib
-    for _m in ("export", "bake", "writeback", "properties", "operators", "panels"):
+    for _m in ("export", "bake", "writeback", "live_update", "properties", "operators", "panels"):
         if _m in locals():
             importlib.reload(locals()[_m])
 
 import bpy  # noqa: E402
 
-from . import export, bake, writeback, properties, operators, panels  # noqa: E402,F401
+from . import export, bake, writeback, live_update, properties, operators, panels  # noqa: E402,F401
 
 # One list, registered in order and unregistered in reverse (like Blender's glTF add-on).
 classes = (
@@ -32,11 +32,11 @@ def register():
     for c in classes:
         bpy.utils.register_class(c)
     properties.register_props()
-    operators.register_handlers()
+    live_update.register_handlers()
 
 
 def unregister():
-    operators.unregister_handlers()
+    live_update.unregister_handlers()
     properties.unregister_props()
     for c in reversed(classes):
         bpy.utils.unregister_class(c)

@@ -4,6 +4,9 @@
     job.solve(progress)                                  # may run in a worker thread (GIL released)
     colours = job.colours()                              # {object name: (loops, 4) float32}
 
+    later = BakeJob(scene, depsgraph, settings, base=job)  # incremental: the same engine Solver,
+    later.solve(progress)                                   # only what changed since `job` is sent
+
 Nothing here writes to Blender data; see writeback.py.
 """
 import math
@@ -95,11 +98,92 @@ def effects_of(sx):
     return ", ".join(out)
 
 
+
+# ----------------------------------------------------------------------------- incremental updates
+def settings_key(settings):
+    """What must match for an engine Solver to be reused."""
+    return tuple(getattr(settings, k) for k in ("samples_direct", "samples_indirect", "patch_size_relative",
+                                                 "threshold", "relaxation"))
+
+
+def _same(a, b):
+    if a is None or b is None:
+        return a is None and b is None
+    return np.array_equal(np.asarray(a), np.asarray(b))
+
+
+def _lamp_call(index, l):
+    """The Solver.set_*_light call (name, args) that sets lamp `index` to LightExport `l`."""
+    if l.kind == "point":
+        return "set_point_light", (index, l.position, l.intensity, l.radius)
+    if l.kind == "spot":
+        return "set_spot_light", (index, l.position, l.direction, l.intensity, l.radius, l.spot_size, l.spot_blend)
+    if l.kind == "sun":
+        return "set_sun_light", (index, l.direction, l.irradiance, l.angle)
+    return "set_area_light", (index, l.position, l.u_half_axis, l.v_half_axis, l.radiance, l.shape)
+
+
+def diff_exports(old, new, ids):
+    """The engine calls that turn the scene `old` (a SceneExport already in a Solver whose mesh ids are
+    `ids`) into `new`: ([(Solver method name, args)], None), or (None, reason) when the engine cannot
+    take the change incrementally (objects added or removed, topology, material assignment, lamp type
+    or area shape, a different material list) and the Solver must be rebuilt.
+
+    Everything is compared with numpy (whole arrays, no per-vertex loops); equal data sends nothing."""
+    calls = []
+    names_old = [m.name for m in old.meshes]
+    names_new = [m.name for m in new.meshes]
+    if names_old != names_new:
+        added = [n for n in names_new if n not in names_old]
+        removed = [n for n in names_old if n not in names_new]
+        if added or removed:
+            what = ", ".join([f"+{n}" for n in added[:3]] + [f"-{n}" for n in removed[:3]])
+            return None, f"objects added or removed ({what})"
+        return None, "objects reordered"
+    for a, b in zip(old.meshes, new.meshes):
+        if (a.refine != b.refine or a.level != b.level or a.positions.shape != b.positions.shape
+                or not np.array_equal(a.face_sizes, b.face_sizes)
+                or not np.array_equal(a.face_vertices, b.face_vertices)):
+            return None, f"'{b.name}' changed topology"
+        if not np.array_equal(a.face_materials, b.face_materials):
+            return None, f"'{b.name}' changed its material assignment"
+    if [m.name for m in old.materials] != [m.name for m in new.materials]:
+        return None, "the list of materials changed"
+    if [(l.name, l.kind, l.shape) for l in old.lights] != [(l.name, l.kind, l.shape) for l in new.lights]:
+        return None, "lamps added, removed or changed type"
+    for a, b in zip(old.meshes, new.meshes):
+        if not np.array_equal(a.transform, b.transform):
+            calls.append(("set_transform", (ids[b.name], b.transform)))
+        if not np.array_equal(a.positions, b.positions):
+            calls.append(("set_positions", (ids[b.name], b.positions)))
+    for i, (a, b) in enumerate(zip(old.materials, new.materials)):
+        if not (_same(a.reflectance, b.reflectance) and _same(a.emission, b.emission)):
+            calls.append(("set_material", (i, b.reflectance, b.emission)))
+    for i, (a, b) in enumerate(zip(old.lights, new.lights)):
+        ca, cb = _lamp_call(i, a), _lamp_call(i, b)
+        if not all(_same(x, y) if isinstance(x, np.ndarray) or isinstance(y, np.ndarray) else x == y
+                   for x, y in zip(ca[1], cb[1])):
+            calls.append(cb)
+    if not _same(old.world, new.world):
+        calls.append(("set_world", (np.asarray(new.world, np.float64),)))
+    return calls, None
+
+
+def apply_calls(solver, calls):
+    for name, args in calls:
+        getattr(solver, name)(*args)
+
 # ----------------------------------------------------------------------------- job
 class BakeJob:
-    """One frame's bake. Construct on the main thread; solve() anywhere; colours() after."""
+    """One frame's bake. Construct on the main thread; solve() anywhere; colours() after.
 
-    def __init__(self, scene, depsgraph, props=None, preset=None, engine=None):
+    With `base` (an earlier, succeeded BakeJob of the same scene and settings) the job is incremental:
+    it reuses base's engine Solver and sends only what changed since base's export (diff_exports),
+    then calls Solver.update(). When the engine cannot take the change (objects added or removed,
+    topology, lamp type...) it builds a new Solver and solves the whole scene (`rebuild_reason` says
+    why). `base` must not be used afterwards: its Solver now holds this job's scene."""
+
+    def __init__(self, scene, depsgraph, props=None, preset=None, engine=None, base=None):
         self.engine = engine or load_engine()
         self.warnings = []
         self.frame = scene.frame_current
@@ -109,6 +193,11 @@ class BakeJob:
         self.stats = None
         self.error = None
         self.done = False
+        self.rays = 0
+        self.shots = 0
+        self.calls = None            # incremental: the Solver calls to send
+        self.rebuild_reason = None   # incremental asked for, full solve needed: why
+        self.scene = None
         edit = _edit_mode_objects(scene)
         if edit:
             raise BakeError(f"object '{edit[0]}' is in Edit Mode: switch to Object Mode before baking")
@@ -121,17 +210,42 @@ class BakeJob:
             self.settings = engine_settings(props, self.engine)
         else:
             self.settings = self.engine.Settings.preset(preset or "default")
-        try:
-            self.scene, self.ids = exporter.to_engine(sx, self.engine)
-        except ValueError as e:
-            raise BakeError(str(e)) from e
+        self.solver = None
+        self.base = None
+        if base is not None:
+            if base.solver is None or not base.succeeded:
+                self.rebuild_reason = "no solved scene to update"
+            elif settings_key(base.settings) != settings_key(self.settings):
+                self.rebuild_reason = "the quality settings changed"
+            else:
+                self.calls, self.rebuild_reason = diff_exports(base.export, sx, base.ids)
+        if self.calls is not None:
+            self.base = base
+            self.solver = base.solver
+            self.ids = base.ids
+        else:
+            self._build_scene()
         self.effects = effects_of(sx)
-        nm = [m.name for m in sx.meshes if _non_manifold_count(m) > 0]
+        nm = [] if self.incremental else [m.name for m in sx.meshes if _non_manifold_count(m) > 0]
         if nm:
             self.warnings.append("non-manifold or open meshes (fine, both sides reflect): "
                                  + ", ".join(nm[:5]) + (" ..." if len(nm) > 5 else ""))
-        self.solver = None
         self.seconds = 0.0
+
+    def _build_scene(self):
+        try:
+            self.scene, self.ids = exporter.to_engine(self.export, self.engine)
+        except ValueError as e:
+            raise BakeError(str(e)) from e
+
+    @property
+    def incremental(self):
+        return self.calls is not None
+
+    @property
+    def unchanged(self):
+        """Incremental and nothing differs from base: solve() sends nothing."""
+        return self.calls is not None and not self.calls
 
     # -- any thread
     def cancel(self):
@@ -147,6 +261,34 @@ class BakeJob:
             self.cancel_requested = True
         return not self.cancel_requested
 
+    def _full(self):
+        if self.scene is None:
+            self._build_scene()
+        try:
+            self.solver = self.engine.Solver(self.scene, self.settings)
+        except ValueError as e:
+            raise BakeError(str(e)) from e
+        if self.cancel_requested:
+            return None
+        return dict(self.solver.solve(progress=self._progress))
+
+    def _update(self):
+        base = dict(self.base.stats)
+        if not self.calls:
+            return dict(base, touched_points=0, seconds=0.0, shots_before=base.get("shots", 0),
+                        rays_before=base.get("rays", 0), warnings=list(base.get("warnings", [])))
+        try:
+            apply_calls(self.solver, self.calls)
+            st = dict(self.solver.update(progress=self._progress))
+        except ValueError as e:           # e.g. a scaled object refines to another patch count
+            self.rebuild_reason = f"the engine refused the change ({e})"
+            self.calls = None
+            self.base = None
+            return self._full()
+        st["shots_before"] = base.get("shots", 0)
+        st["rays_before"] = base.get("rays", 0)
+        return st
+
     def solve(self, progress=None):
         """Run the solver. Errors are kept in self.error (also raised when not in a thread)."""
         self.user_progress = progress
@@ -154,17 +296,19 @@ class BakeJob:
         try:
             if self.cancel_requested:
                 return None
-            try:
-                self.solver = self.engine.Solver(self.scene, self.settings)
-            except ValueError as e:
-                raise BakeError(str(e)) from e
-            if self.cancel_requested:
+            st = self._update() if self.incremental else self._full()
+            if st is None:
                 return None
-            self.stats = dict(self.solver.solve(progress=self._progress))
-            self.warnings += [str(w) for w in self.stats.get("warnings", [])]
-            if self.stats.get("cancelled"):
+            self.stats = st
+            # Shots, rays and warnings add up over a Solver's life: keep this job's share.
+            before = self.base.stats if self.incremental else {}
+            self.rays = max(0, int(st.get("rays", 0)) - int(st.pop("rays_before", 0)))
+            self.shots = max(0, int(st.get("shots", 0)) - int(st.pop("shots_before", 0)))
+            old = len(before.get("warnings", [])) if before else 0
+            self.warnings += [str(w) for w in st.get("warnings", [])[old:]]
+            if st.get("cancelled"):
                 self.cancel_requested = True
-            return self.stats
+            return st
         except Exception as e:   # noqa: BLE001 -- reported by the caller
             self.error = e
             raise

@@ -3,17 +3,20 @@
 From a script (execute) the bake runs synchronously. From the UI (invoke) it runs modal: each frame's
 solve runs in a Python thread (the engine releases the GIL), a timer polls it, Esc cancels.
 Colours are written only after every frame solved; a cancel or an error leaves them untouched.
+
+bake_animation solves the first frame in full and every later frame incrementally on the same engine
+Solver (bake.BakeJob(base=previous job)): only what changed since the previous frame is re-shot.
+The handlers (frame change, live update) live in live_update.py and stay quiet while a bake runs.
 """
 import threading
 
 import bpy
-from bpy.app.handlers import persistent
 
-from . import bake, writeback
+from . import bake, live_update, writeback
 
 # Per-frame colours of the last animation bake: {scene name: {frame: {object name: (loops,4) rgba}}}.
-# Kept in memory (not saved in the .blend); frame_change_post writes the current frame's colours.
-frame_cache = {}
+# Also kept in the .blend (live_update.STORE); frame_change_pre writes the current frame's colours.
+frame_cache = live_update.frame_cache
 
 MAX_REPORTS = 8
 
@@ -38,24 +41,30 @@ def _frames(scene, animation):
     return list(range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step)))
 
 
-def prepare_frame(context, frame, animation):
-    """BakeJob for one frame (main thread). Raises bake.BakeError."""
+def prepare_frame(context, frame, animation, base=None):
+    """BakeJob for one frame (main thread); incremental on `base`'s Solver when given.
+    Raises bake.BakeError."""
     scene = context.scene
     if animation and scene.frame_current != frame:
         scene.frame_set(frame)
-    return bake.BakeJob(scene, context.evaluated_depsgraph_get(), scene.radiosity)
+    job = bake.BakeJob(scene, context.evaluated_depsgraph_get(), scene.radiosity, base=base)
+    if base is not None and job.rebuild_reason:
+        print(f"Radiosity: frame {frame}: {job.rebuild_reason}; the engine does not add, remove or re-mesh "
+              "objects incrementally: new solver, full solve")
+    return job
 
 
 def bake_frames(context, frames, animation, progress=None):
     """Synchronous bake. progress(fraction, residual) -> False cancels.
-    Returns (jobs, {frame: colours}) with colours None when cancelled. Raises bake.BakeError."""
+    Returns (jobs, {frame: colours}) with colours None when cancelled. Raises bake.BakeError.
+    The first frame is solved in full, later frames incrementally on the same Solver."""
     jobs, results = [], {}
     scene = context.scene
     start_frame = scene.frame_current
     n = len(frames)
     try:
         for i, f in enumerate(frames):
-            job = prepare_frame(context, f, animation)
+            job = prepare_frame(context, f, animation, jobs[-1] if jobs else None)
             jobs.append(job)
 
             def overall(fraction, residual, i=i):
@@ -77,14 +86,21 @@ def finish(context, jobs, results, animation, report):
     frame = scene.frame_current
     if animation:
         frame_cache[scene.name] = results
+        live_update.store_frames(scene, results)
     else:
-        cache = frame_cache.get(scene.name)
+        cache = live_update.frames_of(scene)
         if cache is not None:
             cache[frame] = results[frame]
+            live_update.store_frame(scene, frame, results[frame])
     colours = results.get(frame)
     if colours is None:                          # current frame outside the baked range
         colours = results[min(results, key=lambda f: abs(f - frame))]
     written, messages = writeback.write_all(colours, scene)
+    # The last frame's Solver becomes the scene's live one (live update continues from it).
+    live_update.forget(scene.name)
+    live_update.live_jobs[scene.name] = jobs[-1]
+    live_update.remember_written(scene, colours, written)
+    live_update.mark_served(scene, frame if frame in results and scene.name in frame_cache else None)
     warnings = []
     for j in jobs:
         warnings += j.warnings
@@ -95,8 +111,8 @@ def finish(context, jobs, results, animation, report):
     props.last_residual = float(max(j.stats["residual"] for j in jobs))
     props.last_patches = int(st.get("patches", 0))
     props.last_points = int(st.get("points", 0))
-    props.last_shots = int(st.get("shots", 0))
-    props.last_rays = float(sum(j.stats.get("rays", 0) for j in jobs))
+    props.last_shots = int(sum(j.shots for j in jobs))
+    props.last_rays = float(sum(j.rays for j in jobs))
     props.last_effects = last.effects
     props.last_frames = len(jobs)
     props.has_results = True
@@ -104,8 +120,10 @@ def finish(context, jobs, results, animation, report):
         warnings.append("the solve stopped before reaching the threshold (see Residual)")
     shown = _report_all(report, warnings)
     props.last_warnings = "\n".join(shown)
+    incremental = [j for j in jobs if j.incremental]
     report({'INFO'}, f"Radiosity: baked {len(written)} object(s)"
-           + (f", {len(jobs)} frames" if animation else "") + f" in {props.last_seconds:.2f} s")
+           + (f", {len(jobs)} frames ({len(incremental)} incremental)" if animation else "")
+           + f" in {props.last_seconds:.2f} s")
     return written
 
 
@@ -118,15 +136,16 @@ class _Bake:
         return context.scene is not None
 
     def execute(self, context):
-        try:
-            jobs, results = bake_frames(context, _frames(context.scene, self.animation), self.animation)
-        except bake.BakeError as e:
-            self.report({'ERROR'}, f"Radiosity: {e}")
-            return {'CANCELLED'}
-        if results is None:
-            self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
-            return {'CANCELLED'}
-        finish(context, jobs, results, self.animation, self.report)
+        with live_update.suspended():
+            try:
+                jobs, results = bake_frames(context, _frames(context.scene, self.animation), self.animation)
+            except bake.BakeError as e:
+                self.report({'ERROR'}, f"Radiosity: {e}")
+                return {'CANCELLED'}
+            if results is None:
+                self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
+                return {'CANCELLED'}
+            finish(context, jobs, results, self.animation, self.report)
         return {'FINISHED'}
 
     # ---------------------------------------------------------------- modal
@@ -138,7 +157,10 @@ class _Bake:
         self._start_frame = scene.frame_current
         self._job = None
         self._thread = None
+        live_update.suspend()               # until modal() / cancel() ends (see _end)
+        self._suspended = True
         if not self._start(context):
+            self._end()
             return {'CANCELLED'}
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.1, window=context.window)
@@ -147,10 +169,15 @@ class _Bake:
         self._status(context, 0.0, 1.0)
         return {'RUNNING_MODAL'}
 
+    def _end(self):
+        if getattr(self, "_suspended", False):
+            self._suspended = False
+            live_update.resume()
+
     def _start(self, context):
         f = self._frames[self._index]
         try:
-            self._job = prepare_frame(context, f, self.animation)
+            self._job = prepare_frame(context, f, self.animation, self._jobs[-1] if self._jobs else None)
         except bake.BakeError as e:
             self.report({'ERROR'}, f"Radiosity: {e}")
             self._restore_frame(context)
@@ -193,6 +220,12 @@ class _Bake:
             context.workspace.status_text_set(None)
 
     def modal(self, context, event):
+        result = self._modal(context, event)
+        if result != {'PASS_THROUGH'}:
+            self._end()
+        return result
+
+    def _modal(self, context, event):
         job = self._job
         if event.type == 'ESC' and event.value == 'PRESS':
             job.cancel()
@@ -235,6 +268,7 @@ class _Bake:
             self._job.cancel()
             self._thread.join()
         self._cleanup(context)
+        self._end()
 
 
 class RADIOSITY_OT_bake(_Bake, bpy.types.Operator):
@@ -259,7 +293,8 @@ class RADIOSITY_OT_clear(bpy.types.Operator):
 
     def execute(self, context):
         scene = context.scene
-        frame_cache.pop(scene.name, None)
+        live_update.drop_frames(scene)
+        live_update.forget(scene.name)
         n = writeback.clear(scene.objects)
         scene.radiosity.has_results = False
         self.report({'INFO'}, f"Radiosity: cleared {n} mesh(es)")
@@ -267,43 +302,15 @@ class RADIOSITY_OT_clear(bpy.types.Operator):
 
 
 # ----------------------------------------------------------------------------- handlers
-@persistent
-def on_frame_change(scene, depsgraph=None):
-    cache = frame_cache.get(scene.name)
-    if not cache:
-        return
-    colours = cache.get(scene.frame_current)
-    if colours is None:
-        return
-    try:
-        writeback.write_all(colours, scene)
-    except Exception as e:   # noqa: BLE001 -- never break playback
-        print("Radiosity: frame change write-back failed:", e)
-
-
-@persistent
-def on_load(*_args):
-    frame_cache.clear()
-
-
-HANDLERS = ((bpy.app.handlers.frame_change_post, on_frame_change),
-            (bpy.app.handlers.load_post, on_load))
+on_frame_change = live_update.on_frame_change
 
 
 def register_handlers():
-    for lst, fn in HANDLERS:
-        for h in [h for h in lst if getattr(h, "__name__", "") == fn.__name__
-                  and getattr(h, "__module__", "") == fn.__module__]:
-            lst.remove(h)
-        lst.append(fn)
+    live_update.register_handlers()
 
 
 def unregister_handlers():
-    for lst, fn in HANDLERS:
-        for h in [h for h in lst if getattr(h, "__name__", "") == fn.__name__
-                  and getattr(h, "__module__", "") == fn.__module__]:
-            lst.remove(h)
-    frame_cache.clear()
+    live_update.unregister_handlers()
 
 
 classes = (RADIOSITY_OT_bake, RADIOSITY_OT_bake_animation, RADIOSITY_OT_clear)

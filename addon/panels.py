@@ -1,7 +1,7 @@
 """Render properties panel and 3D view sidebar panel (tab "Radiosity")."""
 import bpy
 
-from . import bake
+from . import bake, live_update
 
 
 def _human(n):
@@ -39,6 +39,24 @@ def draw_main(layout, context):
     col.operator("radiosity.bake_animation", icon='RENDER_ANIMATION')
     col.operator("radiosity.clear", icon='X')
     layout.prop(props, "live_update")
+    layout.prop(props, "store_frames")
+    info = live_update.last_sync.get(scene.name)
+    if props.live_update and info:
+        layout.label(text=live_status(info), icon='TIME')
+
+
+def live_status(info):
+    """One line on the last live update."""
+    mode = info.get("mode")
+    if mode in ("incremental", "full"):
+        text = f"Live: {mode} {info.get('seconds_total', 0.0) * 1000:.0f} ms"
+        pts, touched = info.get("points") or 0, info.get("touched_points")
+        if mode == "incremental" and pts and touched is not None:
+            text += f", {100.0 * touched / pts:.0f}% of vertices touched"
+        return text
+    if mode == "unchanged":
+        return "Live: up to date"
+    return f"Live: {mode}" + (f" ({info['reason']})" if info.get("reason") else "")
 
 
 def draw_settings(layout, context):

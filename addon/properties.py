@@ -44,7 +44,13 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
         description="Over-relaxation of reflected light shots (1 = plain progressive refinement)")
     live_update: BoolProperty(
         name="Live Update", default=False,
-        description="Update the lighting on frame change and while editing")
+        description="Update the lighting on frame change and while editing: only what changed is "
+                    "re-shot on the engine's solver kept in memory (frames baked by Bake Animation "
+                    "show their baked lighting)")
+    store_frames: BoolProperty(
+        name="Keep Frames in File", default=True,
+        description="Save the frames of Bake Animation in the .blend, so that the animation renders "
+                    "with its lighting after reopening (e.g. blender -b file.blend -a)")
 
     # results of the last bake (written by the operators)
     last_seconds: FloatProperty(name="Time", default=0.0, precision=2, unit='TIME_ABSOLUTE')

@@ -1,0 +1,422 @@
+"""Live update and per-frame colours: the add-on's handlers.
+
+- Baked animation (radiosity.bake_animation): each frame's colours are kept in `frame_cache` (and in
+  the .blend, scene["_radiosity_frames"], so `blender -b -a` on the saved file shows them too).
+  frame_change_pre writes the new frame's colours before the frame is evaluated, so the viewport,
+  F12 and `blender -b -a` all show frame N's lighting on frame N.
+- Live update (scene.radiosity.live_update): one engine Solver per scene stays in memory
+  (`live_jobs`, started by a bake or by the first change). On a frame change (frame_change_post) or
+  an edit (depsgraph_update_post) the evaluated scene is exported and compared with what the Solver
+  last got (bake.diff_exports: transforms, deformed positions, materials, lamps, world); only the
+  differences are sent (Solver.set_*), Solver.update() shoots them, and the colours are written.
+  Objects added or removed, or changed topology, need a new Solver and a full solve (printed).
+
+Never while a render runs: a render job (is_job_running('RENDER' / 'OBJECT_BAKE')) or a render
+depsgraph gets no live solves. Cached frames are written only by the render pipeline's own frame
+step (frame_change_pre from the render thread, before it evaluates that frame) or when no render
+runs. Re-entry: the handlers do nothing while one of them, or a bake operator, is running
+(`suspended()`); writes that come back as depsgraph updates find nothing changed and stop there.
+"""
+import contextlib
+import threading
+import time
+
+import bpy
+import numpy as np
+from bpy.app.handlers import persistent
+
+from . import bake, writeback
+
+# {scene name: {frame: {object name: (loops, 4) float32 rgba}}}: the last animation bake
+frame_cache = {}
+# {scene name: BakeJob}: the live engine Solver of each scene and the export it last got
+live_jobs = {}
+# {scene name: {object name: rgba}}: what the handlers last wrote (unchanged arrays are not rewritten)
+last_written = {}
+# {scene name: dict}: what the last live update did (mode, reason, seconds, touched points...)
+last_sync = {}
+
+STORE = "_radiosity_frames"      # scene ID property: {str(frame): {object name: float32 RGB, flat}}
+
+_state = {"suspend": 0, "busy": False}
+counters = {"render_skips": 0}   # live updates refused because a render was running (tests)
+_served = {}                     # {scene name: frame whose colours came from frame_cache}
+_pending = set()                 # scene names with edits waiting for the timer (UI only)
+_echo = set()                    # meshes written by the last write (their update is ours, not an edit)
+
+
+# ----------------------------------------------------------------------------- guards
+def suspend():
+    _state["suspend"] += 1
+
+
+def resume():
+    _state["suspend"] = max(0, _state["suspend"] - 1)
+
+
+@contextlib.contextmanager
+def suspended():
+    """No handler work inside (the bake operators change frames themselves)."""
+    suspend()
+    try:
+        yield
+    finally:
+        resume()
+
+
+def blocked():
+    return _state["suspend"] > 0 or _state["busy"]
+
+
+def _job_running(kind):
+    f = getattr(bpy.app, "is_job_running", None)    # Blender 3.2+
+    if f is None:
+        return False
+    try:
+        return bool(f(kind))
+    except (TypeError, ValueError):
+        return False
+
+
+def rendering(depsgraph=None):
+    """True while a render (or a Cycles bake) uses the scene data, or for a render depsgraph."""
+    if depsgraph is not None and getattr(depsgraph, "mode", 'VIEWPORT') == 'RENDER':
+        return True
+    return _job_running('RENDER') or _job_running('OBJECT_BAKE')
+
+
+def _render_thread():
+    """A render job runs and this call comes from it (the render pipeline's own frame step)."""
+    return threading.current_thread() is not threading.main_thread()
+
+
+# ----------------------------------------------------------------------------- the frames kept
+def store_frames(scene, results):
+    """Keep {frame: {object: rgba}} in the .blend (RGB float32) when scene.radiosity.store_frames."""
+    if STORE in scene:
+        del scene[STORE]
+    if not results or not scene.radiosity.store_frames:
+        return
+    scene[STORE] = {str(int(f)): {name: np.ascontiguousarray(rgba[:, :3], np.float32).ravel()
+                                  for name, rgba in colours.items()}
+                    for f, colours in results.items()}
+
+
+def store_frame(scene, frame, colours):
+    g = scene.get(STORE)
+    if g is None:
+        return
+    g[str(int(frame))] = {name: np.ascontiguousarray(rgba[:, :3], np.float32).ravel()
+                          for name, rgba in colours.items()}
+
+
+def load_frames(scene):
+    """{frame: {object: rgba}} from the .blend, or None."""
+    g = scene.get(STORE)
+    if g is None:
+        return None
+    out = {}
+    for fkey, objects in g.items():
+        colours = {}
+        for name, flat in objects.items():
+            rgb = np.asarray(memoryview(flat)).astype(np.float32).reshape(-1, 3)
+            rgba = np.ones((len(rgb), 4), np.float32)
+            rgba[:, :3] = rgb
+            colours[name] = rgba
+        out[int(fkey)] = colours
+    return out
+
+
+def frames_of(scene):
+    """The scene's baked frames: memory first, else the .blend (loaded once)."""
+    cache = frame_cache.get(scene.name)
+    if cache is None and STORE in scene:
+        cache = load_frames(scene)
+        if cache:
+            frame_cache[scene.name] = cache
+    return cache
+
+
+def drop_frames(scene):
+    frame_cache.pop(scene.name, None)
+    _served.pop(scene.name, None)
+    if STORE in scene:
+        del scene[STORE]
+
+
+def mark_served(scene, frame):
+    """The colours shown on `frame` are the baked ones (None: not from the frame cache)."""
+    if frame is None:
+        _served.pop(scene.name, None)
+    else:
+        _served[scene.name] = frame
+
+
+def forget(scene_name=None):
+    """Drop the live Solver(s) and what was written (clear, file load, unregister)."""
+    for d in (live_jobs, last_written, last_sync, _served):
+        if scene_name is None:
+            d.clear()
+        else:
+            d.pop(scene_name, None)
+    if scene_name is None:
+        frame_cache.clear()
+        _echo.clear()
+        _pending.clear()
+
+
+# ----------------------------------------------------------------------------- write-back
+def write(scene, colours, force=False):
+    """writeback.write_all for the arrays that differ from what was last written. (written, messages)"""
+    done = last_written.setdefault(scene.name, {})
+    todo = {}
+    for name, rgba in colours.items():
+        old = done.get(name)
+        ob = bpy.data.objects.get(name)
+        if (not force and old is not None and ob is not None and ob.type == 'MESH'
+                and ob.data.color_attributes.get(writeback.ATTRIBUTE) is not None
+                and (old is rgba or (old.shape == rgba.shape and np.array_equal(old, rgba)))):
+            continue
+        todo[name] = rgba
+    if not todo:
+        return [], []
+    written, messages = writeback.write_all(todo, scene)
+    for name in written:
+        done[name] = todo[name]
+        _echo.add(bpy.data.objects[name].data.name)
+    return written, messages
+
+
+def remember_written(scene, colours, written):
+    done = last_written.setdefault(scene.name, {})
+    for name in written:
+        done[name] = colours[name]
+
+
+# ----------------------------------------------------------------------------- live update
+def sync(scene, depsgraph=None):
+    """Bring the scene's live Solver and the colours up to date with the evaluated scene.
+    Returns what it did: {"mode": "unchanged" | "incremental" | "full" | "skipped" | "error", ...}."""
+    t0 = time.perf_counter()
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    base = live_jobs.get(scene.name)
+    info = {"frame": scene.frame_current, "mode": "skipped", "reason": None}
+    _state["busy"] = True
+    try:
+        try:
+            job = bake.BakeJob(scene, depsgraph, scene.radiosity, base=base)
+        except bake.BakeError as e:
+            info["reason"] = str(e)
+            last_sync[scene.name] = info
+            return info
+        t1 = time.perf_counter()
+        info["seconds_export"] = t1 - t0
+        if job.unchanged:
+            info["mode"] = "unchanged"
+            info["seconds_total"] = time.perf_counter() - t0
+            last_sync[scene.name] = info
+            return info
+        if base is None:
+            info["reason"] = "no solver for this scene yet"
+        elif job.rebuild_reason:
+            info["reason"] = job.rebuild_reason
+        live_jobs.pop(scene.name, None)            # base's Solver is job's (or gone) from here on
+        try:
+            job.solve()
+        except Exception as e:   # noqa: BLE001 -- never break playback or editing
+            info.update(mode="error", reason=str(e))
+            print("Radiosity: live update failed:", e)
+            last_sync[scene.name] = info
+            return info
+        if job.rebuild_reason and base is not None:
+            print(f"Radiosity: live update: {job.rebuild_reason}; the engine does not add, remove or "
+                  f"re-mesh objects incrementally: new solver, full solve ({job.seconds:.2f} s)")
+        if not job.succeeded:
+            info.update(mode="error", reason="the solve did not finish")
+            last_sync[scene.name] = info
+            return info
+        live_jobs[scene.name] = job
+        t2 = time.perf_counter()
+        colours = job.colours()
+        written, _messages = write(scene, colours)
+        t3 = time.perf_counter()
+        st = job.stats
+        points = int(st.get("points", 0))
+        # the engine may count a point once per change (lamp + object): at most all of them
+        touched = min(points, int(st.get("touched_points", points))) if job.incremental else points
+        info.update(mode="incremental" if job.incremental else "full",
+                    reason=None if job.incremental else info["reason"],
+                    changes=len(job.calls) if job.incremental else None,
+                    seconds_solve=job.seconds, seconds_write=t3 - t2, seconds_total=t3 - t0,
+                    touched_points=touched, touched_points_engine=int(st.get("touched_points", -1)),
+                    points=points, residual=float(st.get("residual", 0.0)),
+                    converged=bool(st.get("converged", True)), rays=job.rays, shots=job.shots,
+                    written=len(written))
+        last_sync[scene.name] = info
+        return info
+    finally:
+        _state["busy"] = False
+
+
+def _served_from_cache(scene):
+    return _served.get(scene.name) == scene.frame_current and scene.name in frame_cache
+
+
+def _user_edit(depsgraph):
+    """Did this depsgraph update come from the user (not from our own colour writes)?"""
+    kinds = tuple(getattr(bpy.types, n) for n in ("Material", "Light", "World", "NodeTree", "Key",
+                                                  "Collection", "Armature", "Curve") if hasattr(bpy.types, n))
+    for u in depsgraph.updates:
+        idb = u.id
+        if isinstance(idb, bpy.types.Object):
+            if u.is_updated_transform:
+                return True
+            if u.is_updated_geometry and (idb.type != 'MESH' or idb.data is None or idb.data.name not in _echo):
+                return True
+        elif isinstance(idb, bpy.types.Mesh):
+            if idb.name not in _echo:
+                return True
+        elif isinstance(idb, kinds):
+            return True
+    return False
+
+
+def _only_echo(depsgraph):
+    """Every update is one of our colour writes: nothing to compare."""
+    for u in depsgraph.updates:
+        idb = u.id
+        if isinstance(idb, bpy.types.Mesh) and idb.name in _echo:
+            continue
+        if (isinstance(idb, bpy.types.Object) and not u.is_updated_transform and idb.type == 'MESH'
+                and idb.data is not None and idb.data.name in _echo):
+            continue
+        return False
+    return True
+
+
+def _flush():
+    """Timer (UI): the edits of the last event, once."""
+    names = list(_pending)
+    _pending.clear()
+    scene = bpy.context.scene
+    if scene is not None and scene.name in names and not blocked() and not rendering() \
+            and scene.radiosity.live_update:
+        sync(scene, bpy.context.evaluated_depsgraph_get())
+    return None
+
+
+# ----------------------------------------------------------------------------- handlers
+@persistent
+def on_frame_change_pre(scene, *_args):
+    """The new frame's baked colours, before the frame is evaluated (viewport and render)."""
+    if _state["suspend"] > 0:
+        return
+    try:
+        if rendering() and not _render_thread():
+            return          # the viewport changed frame while a render job reads the meshes
+        cache = frames_of(scene)
+        colours = cache.get(scene.frame_current) if cache else None
+        if colours is None:
+            _served.pop(scene.name, None)
+            return
+        _served[scene.name] = scene.frame_current
+        write(scene, colours)
+    except Exception as e:   # noqa: BLE001 -- never break playback or rendering
+        print("Radiosity: frame change write-back failed:", e)
+
+
+@persistent
+def on_frame_change(scene, depsgraph=None):
+    """Live update on frame change (playback, scrubbing, frame_set) for frames not baked."""
+    if blocked() or not scene.radiosity.live_update:
+        return
+    if rendering(depsgraph):
+        counters["render_skips"] += 1
+        return
+    if _served_from_cache(scene):
+        return
+    try:
+        sync(scene, depsgraph)
+    except Exception as e:   # noqa: BLE001
+        print("Radiosity: live update failed:", e)
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph=None):
+    """Live update while editing: an object moved, a material, lamp or the world changed."""
+    if blocked() or rendering(depsgraph):
+        return
+    try:
+        if not scene.radiosity.live_update:
+            return
+        if depsgraph is None:
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+        if _served_from_cache(scene):
+            if not _user_edit(depsgraph):
+                return
+            drop_frames(scene)
+            print("Radiosity: live update: the scene was edited; the baked animation frames are out of "
+                  "date and dropped (bake the animation again to keep them)")
+        elif _only_echo(depsgraph):
+            _echo.clear()
+            return
+        _echo.clear()
+        if bpy.app.background:
+            sync(scene, depsgraph)
+        else:                                   # coalesce a drag's many updates into one solve
+            _pending.add(scene.name)
+            if not bpy.app.timers.is_registered(_flush):
+                bpy.app.timers.register(_flush, first_interval=0.0)
+    except Exception as e:   # noqa: BLE001
+        print("Radiosity: live update failed:", e)
+
+
+@persistent
+def on_load_pre(*_args):
+    forget()
+
+
+@persistent
+def on_load_post(*_args):
+    forget()          # frames come back from the .blend when first needed (frames_of)
+
+
+@persistent
+def on_undo_redo(*_args):
+    """Undo brings back older colours with the older scene: write the next results whatever they are."""
+    last_written.clear()
+    _echo.clear()
+
+
+HANDLERS = (("frame_change_pre", on_frame_change_pre),
+            ("frame_change_post", on_frame_change),
+            ("depsgraph_update_post", on_depsgraph_update),
+            ("load_pre", on_load_pre),
+            ("load_post", on_load_post),
+            ("undo_post", on_undo_redo),
+            ("redo_post", on_undo_redo))
+
+
+def _ours(h, fn):
+    return getattr(h, "__name__", "") == fn.__name__ and getattr(h, "__module__", "") == fn.__module__
+
+
+def register_handlers():
+    """Idempotent: an earlier registration of the same functions (e.g. before F8) is replaced."""
+    for lst, fn in HANDLERS:
+        handlers = getattr(bpy.app.handlers, lst)
+        for h in [h for h in handlers if _ours(h, fn)]:
+            handlers.remove(h)
+        handlers.append(fn)
+
+
+def unregister_handlers():
+    for lst, fn in HANDLERS:
+        handlers = getattr(bpy.app.handlers, lst)
+        for h in [h for h in handlers if _ours(h, fn)]:
+            handlers.remove(h)
+    if bpy.app.timers.is_registered(_flush):
+        bpy.app.timers.unregister(_flush)
+    forget()
+    _state.update(suspend=0, busy=False)

@@ -1,0 +1,319 @@
+"""Live update and incremental animation bakes (issue 4), in Blender.
+
+Every comparison is against a fresh full bake of the same state, with reference.relative_rms (1%).
+Solves use the draft preset with coarser patches (patch_size_relative 1/8, 1/4 for the animated room)
+to stay quick on 2 cores: the check is that the incremental path gives what a full solve gives.
+"""
+import os
+import sys
+
+import bpy
+import numpy as np
+import pytest
+
+from conftest import ROOT, SAMPLES, load_package
+
+ENGINE_DIR = os.path.join(ROOT, "build", "engine")
+if not os.path.isdir(ENGINE_DIR) or not any(f.startswith("radiosity_engine") for f in os.listdir(ENGINE_DIR)):
+    pytest.skip("engine module not built", allow_module_level=True)
+
+sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
+sys.path.insert(0, SAMPLES)
+from reference import relative_rms  # noqa: E402
+import make_samples as ms  # noqa: E402
+
+BOUND = 0.01
+
+
+@pytest.fixture(scope="module", autouse=True)
+def clean_scene_after():
+    """Leave a fresh empty scene (default settings) for the test files that run after this one."""
+    yield
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def quick(scene, patch=0.125, preset='DRAFT'):
+    p = scene.radiosity
+    p.preset = preset
+    p.patch_size_relative = patch
+    return scene
+
+
+def open_blend(name, patch=0.25, preset='DRAFT'):
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, name + ".blend"))
+    return quick(bpy.context.scene, patch, preset)
+
+
+def read(scene):
+    wb = load_package().writeback
+    out = {}
+    for ob in scene.objects:
+        if ob.type == 'MESH' and not ob.hide_render:
+            v = wb.read_mesh(ob.data)
+            out[ob.name] = None if v is None else v.copy()
+    return out
+
+
+def stacked(colours):
+    return np.concatenate([colours[k][:, :3] for k in sorted(colours)])
+
+
+def fresh_bake(scene):
+    """Colours of a full bake of the current state (the live Solver is replaced by it)."""
+    live = load_package().live_update
+    saved = scene.radiosity.live_update
+    scene.radiosity.live_update = False
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = saved
+    out = read(scene)
+    assert live.live_jobs[scene.name].incremental is False
+    return out
+
+
+def check_finite(colours):
+    for name, v in colours.items():
+        assert v is not None, name
+        assert np.isfinite(v).all() and (v[:, :3] >= 0).all(), name
+
+
+def edit_scene():
+    """Floor grid (24 x 24 quads: shadows show at its vertices), a red box, an emitting panel,
+    a point lamp and a dim world."""
+    sc = ms.new_scene()
+    quick(sc)
+    n = 24
+    x, y = np.meshgrid(np.linspace(-2, 2, n + 1), np.linspace(-2, 2, n + 1))
+    verts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
+    i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
+    faces = np.stack([i, i + 1, i + n + 2, i + n + 1], -1).reshape(-1, 4)
+    ms.mesh_object("Floor", verts, faces.tolist(), [ms.diffuse("Floor", (0.6, 0.6, 0.6))])
+    ms.box("Box", (0.6, 0.6, 0.6), (0.0, 0.0, 0.0), 0.0, ms.diffuse("Red", (0.8, 0.2, 0.1)))
+    ms.mesh_object("Panel", [(-1.9, -1, 0.2), (-1.9, 1, 0.2), (-1.9, 1, 1.2), (-1.9, -1, 1.2)], [(0, 1, 2, 3)],
+                   [ms.emission("Glow", (1.0, 0.9, 0.7), 2.0)])
+    ms.lamp("Lamp", 'POINT', (0.3, -0.2, 2.0), energy=200.0, shadow_soft_size=0.0)
+    sc.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.05, 0.05, 0.05, 1.0)
+    return sc
+
+
+def changed(a, b, tol=1e-4):
+    return relative_rms(stacked(a), stacked(b)) > tol
+
+
+# ----------------------------------------------------------------------------- diff (no solve)
+def test_diff_sends_only_what_changed(addon):
+    scene = edit_scene()
+    bake, export = addon.bake, addon.export
+    a = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    ids = {m.name: i for i, m in enumerate(a.meshes)}
+    calls, reason = bake.diff_exports(a, a, ids)
+    assert calls == [] and reason is None
+    scene.objects["Box"].location.x = 0.5
+    bpy.data.lights["Lamp"].energy = 50.0
+    bpy.data.materials["Red"].node_tree.nodes["Diffuse BSDF"].inputs["Color"].default_value = (0.1, 0.8, 0.1, 1)
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 2.0
+    b = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    calls, reason = bake.diff_exports(a, b, ids)
+    assert reason is None
+    names = sorted(c[0] for c in calls)
+    assert names == ["set_material", "set_point_light", "set_transform", "set_world"], names
+    tr = [c for c in calls if c[0] == "set_transform"][0]
+    assert tr[1][0] == ids["Box"] and tr[1][1][0, 3] == pytest.approx(0.5)
+    np.testing.assert_allclose([c for c in calls if c[0] == "set_world"][0][1][0], (0.1, 0.1, 0.1), rtol=1e-6)
+    # deformation (same topology) -> positions; new object -> rebuild
+    scene.objects["Box"].data.vertices[0].co.z -= 0.1
+    c = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    calls, reason = bake.diff_exports(b, c, ids)
+    assert [x[0] for x in calls] == ["set_positions"] and calls[0][1][1].shape == (8, 3)
+    ms.box("Box2", (0.2, 0.2, 0.2), (1.0, 1.0, 0.0), 0.0, bpy.data.materials["Red"])
+    d = export.export_scene(bpy.context.evaluated_depsgraph_get())
+    calls, reason = bake.diff_exports(c, d, ids)
+    assert calls is None and "+Box2" in reason
+
+
+# ----------------------------------------------------------------------------- handlers
+def test_handlers_persistent_and_unregister(addon):
+    live = addon.live_update
+    for lst, fn in live.HANDLERS:
+        hs = getattr(bpy.app.handlers, lst)
+        assert sum(h is fn for h in hs) == 1, lst
+        assert hasattr(fn, "_bpy_persistent"), fn.__name__             # @persistent
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, "cornell_box.blend"))
+    for lst, fn in live.HANDLERS:
+        assert fn in getattr(bpy.app.handlers, lst), lst            # survived the file load
+    addon.unregister()
+    try:
+        for lst, fn in live.HANDLERS:
+            assert not any(getattr(h, "__module__", "") == fn.__module__ for h in getattr(bpy.app.handlers, lst))
+        bpy.context.scene.frame_set(2)                               # nothing of ours runs
+    finally:
+        addon.register()
+    live.register_handlers()                                         # idempotent
+    for lst, fn in live.HANDLERS:
+        assert sum(h is fn for h in getattr(bpy.app.handlers, lst)) == 1
+
+
+# ----------------------------------------------------------------------------- playback
+@pytest.mark.parametrize("preset,frames", [('DRAFT', range(1, 25)),          # every frame
+                                           ('DEFAULT', (1, 8, 16, 24))])     # the issue's preset
+def test_playback_matches_fresh_bake(addon, preset, frames):
+    live = addon.live_update
+    scene = open_blend("animated_room", preset=preset)
+    scene.frame_set(1)
+    scene.radiosity.live_update = True
+    modes, first = [], None
+    for f in frames:
+        scene.frame_set(f)
+        info = live.last_sync[scene.name]
+        assert info["frame"] == f
+        modes.append(info["mode"])
+        if info["mode"] == "incremental":
+            assert info["changes"] == 2                       # the box's transform and the lamp
+            assert 0 < info["touched_points"]
+        if first is None:
+            first = read(scene)
+    assert modes == ["full"] + ["incremental"] * (len(frames) - 1), modes
+    played = read(scene)
+    check_finite(played)
+    assert changed(played, first, 0.1)                        # the lighting did change over the range
+    fresh = fresh_bake(scene)
+    err = relative_rms(stacked(played), stacked(fresh))
+    print(f"{preset}: playback of {len(frames)} frames vs fresh bake at 24: {100 * err:.3f}% RMS")
+    assert err < BOUND
+
+
+# ----------------------------------------------------------------------------- edits
+def test_edits_update_and_match_fresh_bake(addon):
+    live = addon.live_update
+    scene = edit_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    before = read(scene)
+    box = scene.objects["Box"]
+    steps = [
+        ("move", lambda: setattr(box, "location", (0.9, 0.4, 0.0))),
+        ("reflectance", lambda: bpy.data.materials["Red"].node_tree.nodes["Diffuse BSDF"]
+         .inputs["Color"].__setattr__("default_value", (0.1, 0.7, 0.9, 1.0))),
+        ("emission", lambda: bpy.data.materials["Glow"].node_tree.nodes["Emission"]
+         .inputs["Strength"].__setattr__("default_value", 6.0)),
+        ("lamp", lambda: setattr(bpy.data.lights["Lamp"], "energy", 80.0)),
+        ("world", lambda: scene.world.node_tree.nodes["Background"].inputs["Color"]
+         .__setattr__("default_value", (0.2, 0.1, 0.05, 1.0))),
+    ]
+    for name, change in steps:
+        change()
+        bpy.context.view_layer.update()                   # depsgraph_update_post -> live update
+        info = live.last_sync[scene.name]
+        assert info["mode"] == "incremental" and info["changes"] == 1, (name, info)
+        now = read(scene)
+        check_finite(now)
+        assert changed(now, before), name
+        before = now
+    bpy.context.view_layer.update()                       # nothing changed: nothing sent
+    assert live.last_sync[scene.name]["mode"] in ("unchanged", "incremental")
+    fresh = fresh_bake(scene)
+    err = relative_rms(stacked(before), stacked(fresh))
+    print(f"move + reflectance + emission + lamp + world vs fresh bake: {100 * err:.3f}% RMS")
+    assert err < BOUND
+
+
+def test_adding_an_object_rebuilds(addon, capsys):
+    live = addon.live_update
+    scene = edit_scene()
+    scene.radiosity.live_update = True
+    scene.objects["Box"].location.x = 0.3
+    bpy.context.view_layer.update()
+    assert live.last_sync[scene.name]["mode"] == "full"          # first change: the first solve
+    ms.box("Extra", (0.3, 0.3, 0.3), (-1.0, 1.0, 0.0), 0.0, bpy.data.materials["Red"])
+    bpy.context.view_layer.update()
+    info = live.last_sync[scene.name]
+    assert info["mode"] == "full" and "+Extra" in info["reason"], info
+    assert "full solve" in capsys.readouterr().out
+    check_finite(read(scene))
+    assert read(scene)["Extra"][:, :3].max() > 0
+
+
+# ----------------------------------------------------------------------------- bake animation
+def test_bake_animation_is_incremental_and_renders_each_frame(addon, tmp_path):
+    live = addon.live_update
+    scene = open_blend("animated_room")
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23          # frames 1 and 24
+    assert bpy.ops.radiosity.bake_animation() == {'FINISHED'}
+    job = live.live_jobs[scene.name]
+    assert job.incremental and job.frame == 24                     # frame 24 came from frame 1's Solver
+    cache = addon.operators.frame_cache[scene.name]
+    assert sorted(cache) == [1, 24]
+    assert changed(cache[1], cache[24], 0.05)
+    # frame 24 from the animation bake = a fresh bake of frame 24
+    scene.frame_set(24)
+    np.testing.assert_array_equal(stacked(read(scene)), stacked(cache[24]))
+
+    # Render both frames with Workbench showing the attribute: frame N shows frame N's colours.
+    for ob in scene.objects:
+        if ob.type == 'MESH':
+            ob.data.color_attributes.active_color = ob.data.color_attributes["Radiosity"]
+    scene.render.engine = 'BLENDER_WORKBENCH'
+    scene.display.shading.light = 'FLAT'
+    scene.display.shading.color_type = 'VERTEX'
+    scene.view_settings.view_transform = 'Standard'
+    scene.render.resolution_x = scene.render.resolution_y = 48
+    scene.render.image_settings.file_format = 'OPEN_EXR'
+    scene.render.filepath = str(tmp_path / "f")
+    scene.frame_set(1)
+    scene.radiosity.live_update = True                     # must not solve inside the render
+    syncs = []
+    real_sync = live.sync
+    live.sync = lambda sc, dg=None: (syncs.append(getattr(dg, "mode", None)), real_sync(sc, dg))[1]
+    skips = live.counters["render_skips"]
+    try:
+        bpy.ops.render.render(animation=True)
+    finally:
+        live.sync = real_sync
+        scene.radiosity.live_update = False
+    assert "RENDER" not in syncs and live.counters["render_skips"] >= skips + 2     # asked twice, refused
+    pics = {}
+    for f in (1, 24):
+        img = bpy.data.images.load(str(tmp_path / f"f{f:04d}.exr"))
+        px = np.empty(img.size[0] * img.size[1] * 4, np.float32)
+        img.pixels.foreach_get(px)
+        pics[f] = px.reshape(img.size[1], img.size[0], 4)[..., :3]
+        bpy.data.images.remove(img)
+    # The lamp ramps 30 W -> 120 W: the picture of frame 24 is about 4x brighter (the box moves too).
+    ratio = pics[24].mean() / pics[1].mean()
+    print(f"rendered frame 24 / frame 1 mean brightness: {ratio:.2f}")
+    assert 2.5 < ratio < 5.0
+    expected = stacked(cache[24]).mean() / stacked(cache[1]).mean()
+    assert ratio == pytest.approx(expected, rel=0.35)
+
+    # The frames are kept in the .blend: reopened (memory cleared), frame 24 shows frame 24.
+    path = str(tmp_path / "baked.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    scene = bpy.context.scene
+    assert scene.name not in addon.operators.frame_cache
+    scene.frame_set(24)
+    np.testing.assert_allclose(stacked(read(scene)), stacked(cache[24]), rtol=1e-6)
+    scene.frame_set(1)
+    np.testing.assert_allclose(stacked(read(scene)), stacked(cache[1]), rtol=1e-6)
+    assert bpy.ops.radiosity.clear() == {'FINISHED'}
+    assert live.STORE not in scene
+
+
+def test_cancelled_animation_keeps_colours(addon):
+    live = addon.live_update
+    scene = open_blend("animated_room")
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    before = read(scene)
+    job_before = live.live_jobs[scene.name]
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23
+    seen = []
+
+    def cancel_on_second_frame(fraction, residual):
+        seen.append(fraction)
+        return fraction < 0.6                   # frame 24 (second half) is cancelled
+    with live.suspended():
+        jobs, results = addon.operators.bake_frames(bpy.context, [1, 24], True, cancel_on_second_frame)
+    assert results is None and len(jobs) == 2 and jobs[1].incremental
+    assert scene.frame_current == 1
+    for k, v in read(scene).items():
+        np.testing.assert_array_equal(v, before[k])
+    assert live.live_jobs[scene.name] is job_before and scene.name not in addon.operators.frame_cache
