@@ -1,0 +1,529 @@
+"""What accuracy costs in time: our presets and Cycles' vertex bake against the cached Cycles reference.
+
+    blender -b --factory-startup --python bench/accuracy_vs_time.py -- [--scenes cornell_box,...] [--quick]
+        [--presets draft,default,high,reference] [--spp 16,64,256,1024,4096] [--dense-spp 16,64,256,1024]
+        [--max-seconds 600]
+    blender -b --factory-startup --python bench/accuracy_vs_time.py -- --plot-only   (PNG from the CSV)
+
+--quick: cornell_box, draft, Cycles at 16/64 spp (corners) and 16 (dense), into results/*_quick.* (~30 s).
+The full run took 25 min on 2 shared cores (high presets 165-445 s each; reference skipped).
+
+For each sample scene (animated_room at frame 1):
+  ours    each preset through the add-on's pipeline (addon/bake.py BakeJob with the preset, then
+          writeback.write_all): seconds = export + solve + write-back wall time. A solve still running
+          after --max-seconds is cancelled (row kept, no error); `reference` only runs when its
+          predicted time (high's time x high/default) fits in --max-seconds.
+  cycles  COMBINED bake into a face-corner FLOAT_COLOR attribute at 16..4096 samples, settings
+          cycles_settings.unbiased (DESIGN.md section 4, 64 bounces), seed 1 (the reference is seed 0:
+          with the same seed its first samples would be Cycles' own). seconds = the bake operator.
+          It bakes only the cage's corners (92 on the Cornell box), so it is cheap on these cages.
+  cycles_dense  the same bake on the dense reference's layout (per-face 0.25 m grids, the evaluated
+          mesh of subdivided objects: thousands of points, about our patch density) at 16..1024 spp.
+Errors: reference.relative_rms. corner_rms: over the non-emitting face corners against the cached
+16,384-spp corner bake, as tests/addon/test_cycles_agreement.py computes it. dense_rms: ours, the
+engine's refined patch corners against the 4,096-spp dense reference interpolated there, as
+compare_engine.py does; cycles_dense, its grid points against the same reference's.
+Runs under 10 s are repeated (3 in all) and the median time kept.
+
+Writes bench/results/accuracy_vs_time.csv and .png, and prints the table, the speed-up at equal
+error (Cycles' time at our error, interpolated on the log-log line between its neighbouring sample
+counts) and, for the default preset, where the corner error sits (contact / junction / other corners).
+"""
+import csv
+import importlib.util
+import math
+import os
+import statistics
+import sys
+import time
+
+import bpy
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+import compare_engine  # noqa: E402  (grid_lookup, face_frames; puts build/engine on sys.path)
+import cycles_settings  # noqa: E402
+import make_references  # noqa: E402  (grid_mesh: the dense layout)
+import plot_png  # noqa: E402
+import reference  # noqa: E402
+
+SCENES = {"cornell_box": None, "subsurf_room": None, "animated_room": 1}
+PRESETS = ["draft", "default", "high", "reference"]
+SPP = [16, 64, 256, 1024, 4096]
+DENSE_SPP = [16, 64, 256, 1024]      # the dense reference itself is 4,096 spp
+CYCLES_SEED = 1
+ATTR = "CyclesBench"
+OUT = os.path.join(ROOT, "bench", "results")
+CSV = os.path.join(OUT, "accuracy_vs_time.csv")
+PNG = os.path.join(OUT, "accuracy_vs_time.png")
+FIELDS = ["scene", "method", "setting", "seconds", "corner_rms", "dense_rms", "load1", "note"]
+
+
+def options():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+
+    def get(flag, default):
+        return argv[argv.index(flag) + 1] if flag in argv else default
+    quick = "--quick" in argv
+    return dict(
+        scenes=get("--scenes", "cornell_box" if quick else ",".join(SCENES)).split(","),
+        presets=get("--presets", "draft" if quick else ",".join(PRESETS)).split(","),
+        spp=[int(s) for s in get("--spp", "16,64" if quick else ",".join(map(str, SPP))).split(",")],
+        dense_spp=[int(s) for s in get("--dense-spp", "16" if quick else ",".join(map(str, DENSE_SPP))).split(",")
+                   if s],
+        max_seconds=float(get("--max-seconds", 600)),
+        plot_only="--plot-only" in argv, quick=quick)
+
+
+def load_addon():
+    """The add-on package from the source tree as `dynamic_radiosity` (its engine: build/engine)."""
+    for k in [k for k in sys.modules if k.split(".")[0] == "dynamic_radiosity"]:
+        del sys.modules[k]
+    spec = importlib.util.spec_from_file_location(
+        "dynamic_radiosity", os.path.join(ROOT, "addon", "__init__.py"),
+        submodule_search_locations=[os.path.join(ROOT, "addon")])
+    pkg = importlib.util.module_from_spec(spec)
+    sys.modules["dynamic_radiosity"] = pkg
+    spec.loader.exec_module(pkg)
+    return pkg
+
+
+def open_scene(name, frame):
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_blends", name + ".blend"))
+    if frame is not None:
+        bpy.context.scene.frame_set(frame)
+    return bpy.context.scene
+
+
+# ----------------------------------------------------------------------------- error
+def emitting_corners(ob):
+    """Face corners of faces whose material has an Emission node of strength > 0 (the test's rule)."""
+    mats = np.array([p.material_index for p in ob.data.polygons])
+    sizes = np.array([p.loop_total for p in ob.data.polygons])
+    emit = np.zeros(len(mats), bool)
+    for i, slot in enumerate(ob.material_slots):
+        m = slot.material
+        if m is not None and m.use_nodes and any(
+                n.type == 'EMISSION' and n.inputs["Strength"].default_value > 0 for n in m.node_tree.nodes):
+            emit[mats == i] = True
+    return np.repeat(emit, sizes)
+
+
+def corner_table(scene, read, ref):
+    """Non-emitting corners of every rendered mesh: (values (K,3), reference (K,3), [(object, loop)])."""
+    vals, refs, where = [], [], []
+    for ob in scene.objects:
+        if ob.type != 'MESH' or ob.hide_render:
+            continue
+        keep = ~emitting_corners(ob)
+        vals.append(read(ob)[keep])
+        refs.append(ref[ob.name + ":corner"][keep])
+        where += [(ob.name, int(i)) for i in np.flatnonzero(keep)]
+    return np.concatenate(vals), np.concatenate(refs), where
+
+
+def dense_error(job, ref):
+    """compare_engine.py's dense error: refined patch corners against the interpolated reference grid
+    (flat all-quad cages) or the nearest evaluated vertex (subdivided objects); emitters left out."""
+    sx, solver = job.export, job.solver
+    d_all, r_all = [], []
+    for m in sx.meshes:
+        emissive = np.array([max(sx.materials[i].emission) > 0 for i in m.face_materials])
+        if emissive.all():
+            continue
+        pos, rad = solver.refined(job.ids[m.name])
+        pts, rad = pos.reshape(-1, 4, 3), rad.reshape(-1, 4, 3)
+        if m.name + ":grid" in ref:
+            nrm = np.cross(pts[:, 2] - pts[:, 0], pts[:, 3] - pts[:, 1])
+            nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+            rv, ok = compare_engine.grid_lookup(compare_engine.face_frames(m), ref[m.name + ":grid"], pts, nrm)
+            d_all.append(rad[ok].reshape(-1, 3))
+            r_all.append(rv[ok].reshape(-1, 3))
+        else:
+            M = m.transform
+            ep = ref[m.name + ":eval_pos"].astype(np.float64) @ M[:3, :3].T + M[:3, 3]
+            q = pts.reshape(-1, 3)
+            idx = np.argmin(((q[:, None, :] - ep[None]) ** 2).sum(2), 1)
+            d_all.append(rad.reshape(-1, 3))
+            r_all.append(ref[m.name + ":eval_value"][idx])
+    return reference.relative_rms(np.concatenate(d_all), np.concatenate(r_all))
+
+
+# ----------------------------------------------------------------------------- runs
+def median_time(run, first_seconds):
+    """run() -> seconds; repeats runs under 10 s (3 in all), returns the median."""
+    times = [first_seconds]
+    while first_seconds < 10 and len(times) < 3:
+        times.append(run())
+    return statistics.median(times)
+
+
+def run_ours(pkg, name, frame, preset, max_seconds):
+    """One preset through export + solve + write-back. Returns (row, detail or None)."""
+    ref = reference.load(name, frame)
+
+    def once():
+        scene = open_scene(name, frame)
+        t0 = time.perf_counter()
+        job = pkg.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), preset=preset)
+        t1 = time.perf_counter()
+        job.solve(progress=lambda f, r: time.perf_counter() - t1 < max_seconds)
+        t2 = time.perf_counter()
+        if job.succeeded:
+            pkg.writeback.write_all(job.colours(), scene)
+        t3 = time.perf_counter()
+        return scene, job, (t1 - t0, t2 - t1, t3 - t2, t3 - t0)
+
+    scene, job, (t_export, t_solve, t_write, total) = once()
+    load1 = os.getloadavg()[0]
+    row = dict(scene=label(name, frame), method="ours", setting=preset, load1=f"{load1:.2f}")
+    if not job.succeeded:
+        row.update(seconds=f"{total:.3f}", corner_rms="", dense_rms="",
+                   note=f"stopped after {t_solve:.0f} s (--max-seconds), residual {job.residual:.2g}")
+        return row, None
+    v, r, where = corner_table(scene, lambda ob: pkg.writeback.read_mesh(ob.data)[:, :3], ref)
+    corner = reference.relative_rms(v, r)
+    dense = dense_error(job, ref)
+    st = job.stats
+    detail = dict(values=v, ref=r, where=where, kinds=classify(scene, where))
+    seconds = median_time(lambda: once()[2][3], total)
+    row.update(seconds=f"{seconds:.3f}", corner_rms=f"{corner:.5f}", dense_rms=f"{dense:.5f}",
+               note=f"export {t_export:.2f} s, solve {t_solve:.2f} s, write {t_write:.3f} s; "
+                    f"{st.get('patches', 0)} patches, {st.get('points', 0)} points, "
+                    f"{st.get('rays', 0) / 1e6:.0f} Mrays, residual {st.get('residual', 0):.1e}")
+    return row, detail
+
+
+def cycles_bake(scene, samples, domain='CORNER'):
+    """Cycles' COMBINED bake of every rendered mesh into a new ATTR attribute; returns its seconds."""
+    cycles_settings.unbiased(scene, samples, 64, CYCLES_SEED)
+    scene.render.bake.target = 'VERTEX_COLORS'
+    scene.render.bake.use_selected_to_active = False
+    bpy.ops.object.select_all(action='DESELECT')
+    meshes = [ob for ob in scene.objects if ob.type == 'MESH' and not ob.hide_render]
+    for ob in meshes:
+        old = ob.data.color_attributes.get(ATTR)
+        if old is not None:
+            ob.data.color_attributes.remove(old)
+        a = ob.data.color_attributes.new(ATTR, 'FLOAT_COLOR', domain)
+        ob.data.color_attributes.active_color = a
+        ob.data.attributes.active_color = a
+        ob.select_set(True)
+    bpy.context.view_layer.objects.active = meshes[0]
+    t = time.perf_counter()
+    bpy.ops.object.bake(type='COMBINED', target='VERTEX_COLORS')
+    return time.perf_counter() - t
+
+
+def read_attr(ob):
+    a = ob.data.color_attributes[ATTR]
+    c = np.empty(len(a.data) * 4, np.float32)
+    a.data.foreach_get("color", c)
+    return c.reshape(-1, 4)[:, :3]
+
+
+def run_cycles(name, frame, spp):
+    """Cycles at the cage corners, against the 16,384-spp corner reference."""
+    ref = reference.load(name, frame)
+    scene = open_scene(name, frame)
+    seconds = cycles_bake(scene, spp)
+    load1 = os.getloadavg()[0]
+    v, r, _ = corner_table(scene, read_attr, ref)
+    corner = reference.relative_rms(v, r)
+    seconds = median_time(lambda: cycles_bake(open_scene(name, frame), spp), seconds)
+    n = len(v)
+    note = f"{n} corners" + ("; includes the reference's own error (README)" if spp >= 1024 else "")
+    return dict(scene=label(name, frame), method="cycles", setting=str(spp), seconds=f"{seconds:.3f}",
+                corner_rms=f"{corner:.5f}", dense_rms="", load1=f"{load1:.2f}", note=note)
+
+
+def dense_layout(scene, ref):
+    """Replace each mesh by the dense reference's layout (make_references.py): per-face n x n grids
+    for flat all-quad cages, the evaluated mesh for the others."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    for ob in [o for o in scene.objects if o.type == 'MESH' and not o.hide_render]:
+        if ob.name + ":grid" in ref:
+            ob.data = make_references.grid_mesh(ob, int(ref[ob.name + ":grid_n"]))
+        else:
+            me = bpy.data.meshes.new_from_object(ob.evaluated_get(dg))
+            ob.modifiers.clear()
+            ob.data = me
+
+
+def run_cycles_dense(name, frame, spp):
+    """Cycles on the dense layout (what our refined patches are compared with), against the
+    4,096-spp dense reference; emitter-only objects left out, as compare_engine.py does."""
+    ref = reference.load(name, frame)
+
+    def once():
+        scene = open_scene(name, frame)
+        dense_layout(scene, ref)
+        return scene, cycles_bake(scene, spp, 'POINT')
+    scene, seconds = once()
+    load1 = os.getloadavg()[0]
+    v, r = [], []
+    for ob in scene.objects:
+        if ob.type != 'MESH' or ob.hide_render or emitting_corners(ob).all():
+            continue
+        v.append(read_attr(ob))
+        r.append(ref[ob.name + (":grid" if ob.name + ":grid" in ref else ":eval_value")].reshape(-1, 3))
+    dense = reference.relative_rms(np.concatenate(v), np.concatenate(r))
+    n = sum(len(x) for x in v)
+    seconds = median_time(lambda: once()[1], seconds)
+    note = f"{n} points" + ("; includes the reference's own error (README)" if spp >= 1024 else "")
+    return dict(scene=label(name, frame), method="cycles_dense", setting=str(spp), seconds=f"{seconds:.3f}",
+                corner_rms="", dense_rms=f"{dense:.5f}", load1=f"{load1:.2f}", note=note)
+
+
+def label(name, frame):
+    return name + (f"@{frame}" if frame is not None else "")
+
+
+# ----------------------------------------------------------------------------- error breakdown
+def point_triangle_distance(p, a, b, c):
+    """Distance from p (3,) to each triangle (T,3) x 3 (Ericson's closest-point via edge checks)."""
+    n = np.cross(b - a, c - a)
+    nn = np.maximum((n * n).sum(1), 1e-300)
+    q = p - ((p - a) * n).sum(1)[:, None] * n / nn[:, None]           # projection on the plane
+    inside = np.ones(len(a), bool)
+    for u, w in ((a, b), (b, c), (c, a)):
+        inside &= (np.cross(w - u, q - u) * n).sum(1) >= 0
+    d = np.where(inside, np.linalg.norm(p - q, axis=1), np.inf)
+    for u, w in ((a, b), (b, c), (c, a)):
+        e = w - u
+        t = np.clip(((p - u) * e).sum(1) / np.maximum((e * e).sum(1), 1e-300), 0, 1)
+        d = np.minimum(d, np.linalg.norm(p - (u + t[:, None] * e), axis=1))
+    return d
+
+
+def classify(scene, where):
+    """Each corner: 'contact' (a face of another object meets it at an angle, in front of its face:
+    box bottoms on the floor, walls against a separate ceiling), 'junction' (a face of its own
+    object does: a room's edges), else 'other' (convex edges, free corners)."""
+    faces = []   # (object, polygon index, world vertices (n,3), unit normal)
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for ob in scene.objects:
+        if ob.type != 'MESH' or ob.hide_render:
+            continue
+        M = np.array(ob.matrix_world)
+        co = np.array([v.co for v in ob.data.vertices]) @ M[:3, :3].T + M[:3, 3]
+        lo, hi = np.minimum(lo, co.min(0)), np.maximum(hi, co.max(0))
+        for p in ob.data.polygons:
+            v = co[list(p.vertices)]
+            n = np.cross(v[1] - v[0], v[-1] - v[0])
+            faces.append((ob.name, p.index, v, n / max(np.linalg.norm(n), 1e-300)))
+    eps = 1e-3 * np.linalg.norm(hi - lo)
+    tris = [(i, f[2][0], f[2][k], f[2][k + 1]) for i, f in enumerate(faces) for k in range(1, len(f[2]) - 1)]
+    tri_face = np.array([t[0] for t in tris])
+    A, B, C = (np.array([t[j] for t in tris]) for j in (1, 2, 3))
+    face_of = {}
+    for i, (obn, pi, _, _) in enumerate(faces):
+        face_of[(obn, pi)] = i
+    out = []
+    loop_face = {}
+    for ob in scene.objects:
+        if ob.type == 'MESH' and not ob.hide_render:
+            for p in ob.data.polygons:
+                for li in p.loop_indices:
+                    loop_face[(ob.name, li)] = (p.index, ob.data.loops[li].vertex_index)
+    for obn, li in where:
+        pi, vi = loop_face[(obn, li)]
+        f = face_of[(obn, pi)]
+        ob = scene.objects[obn]
+        p = np.array(ob.matrix_world) @ np.append(np.array(ob.data.vertices[vi].co), 1.0)
+        p, n = p[:3], faces[f][3]
+        near = np.unique(tri_face[point_triangle_distance(p, A, B, C) < eps])
+        kind = "other"
+        for g in near:
+            og, _, vg, ng = faces[g]
+            if g == f or abs(n @ ng) > 0.99 or ((vg - p) @ n).max() <= eps:
+                continue        # itself, parallel (coplanar neighbour, the Cornell light), or behind it
+            kind = "contact" if og != obn else ("junction" if kind == "other" else kind)
+        out.append(kind)
+    return out
+
+
+def breakdown(name, detail):
+    v, r, where = detail["values"], detail["ref"], detail["where"]
+    kinds = np.array(detail["kinds"])
+    objs = np.array([w[0] for w in where])
+    mean = r.mean()
+    sq = ((v - r) ** 2).mean(1)                      # per corner, mean over channels
+    total = math.sqrt(sq.mean()) / mean
+    lines = [f"\n{name}: default preset, corner RMS {total:.2%} over {len(sq)} corners "
+             f"(rms within a group is normalised by the scene's mean reference, as the total is; "
+             f"share = the group's part of the total squared error; ratio = ours/Cycles mean)"]
+    lines.append(f"  {'group':26} {'corners':>7} {'rms':>7} {'share':>6} {'ratio':>6}")
+    groups = [(k, kinds == k) for k in ("contact", "junction", "other")]
+    groups += [(f"{o}/{k}", (objs == o) & (kinds == k)) for o in dict.fromkeys(objs) for k in
+               ("contact", "junction", "other")]
+    for g, m in groups:
+        if m.any():
+            lines.append(f"  {g:26} {m.sum():7d} {math.sqrt(sq[m].mean()) / mean:7.2%} "
+                         f"{sq[m].sum() / sq.sum():6.1%} {v[m].sum() / r[m].sum():6.3f}")
+    worst = np.argsort(-sq)[:6]
+    lines.append("  worst corners: " + "; ".join(
+        f"{where[i][0]} loop {where[i][1]} ({kinds[i]}) ours {v[i].mean():.3g} Cycles {r[i].mean():.3g}"
+        for i in worst))
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- report
+def cycles_time_at(rows, err, col):
+    """Cycles' seconds at error err (column col) on the log-log line between its neighbouring sample
+    counts; outside its range the end segment is extended and the note says so."""
+    pts = sorted((int(r["setting"]), float(r["seconds"]), float(r[col])) for r in rows)
+    if len(pts) < 2:
+        return None, ""
+    i = next((k for k in range(len(pts) - 1) if pts[k][2] >= err >= pts[k + 1][2]), None)
+    note = ""
+    if i is None:
+        above = err > pts[0][2]
+        i = 0 if above else len(pts) - 2
+        note = f"extrapolated {'below' if above else 'beyond'} {pts[0 if above else -1][0]} spp"
+    (_, t0, e0), (_, t1, e1) = pts[i], pts[i + 1]
+    f = (math.log(err) - math.log(e0)) / (math.log(e1) - math.log(e0))
+    return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0))), note
+
+
+def report(rows):
+    print(f"\n{'scene':16} {'method':12} {'setting':>9} {'seconds':>9} {'corner RMS':>10} {'dense RMS':>9} "
+          f"{'load':>5}  note")
+    for r in rows:
+        print(f"{r['scene']:16} {r['method']:12} {r['setting']:>9} {float(r['seconds']):9.2f} "
+              f"{pct(r['corner_rms']):>10} {pct(r['dense_rms']):>9} {r['load1']:>5}  {r['note']}")
+    for col, cmethod, what in (("corner_rms", "cycles", "cage corners (the attribute's values)"),
+                               ("dense_rms", "cycles_dense", "dense (our refined patch corners / Cycles' grid)")):
+        print(f"\nAt equal error, {what}; Cycles' time interpolated at our error:")
+        for sc in dict.fromkeys(r["scene"] for r in rows):
+            cyc = [r for r in rows if r["scene"] == sc and r["method"] == cmethod]
+            ours = [r for r in rows if r["scene"] == sc and r["method"] == "ours" and r[col]]
+            if len(cyc) < 2:
+                continue
+            for r in ours:
+                e, t = float(r[col]), float(r["seconds"])
+                tc, note = cycles_time_at(cyc, e, col)
+                print(f"  {sc:16} {r['setting']:9} {e:6.2%} in {t:8.2f} s; Cycles {tc:8.2f} s"
+                      f"{' (' + note + ')' if note else ''}: we are {speed(tc / t)}")
+            tc1, note = cycles_time_at(cyc, 0.01, col)
+            best = min(ours, key=lambda r: float(r[col]), default=None)
+            print(f"  {sc:16} 1%: Cycles {tc1:.2f} s{' (' + note + ')' if note else ''}; "
+                  + ("we have no result" if best is None else
+                     f"our best is {float(best[col]):.2%} ({best['setting']}): 1% not reached"
+                     if float(best[col]) > 0.01 else "we reach 1%"))
+
+
+def speed(x):
+    return f"{x:.2f}x faster" if x >= 1 else f"{1 / x:.1f}x slower"
+
+
+def pct(s):
+    return f"{float(s):.2%}" if s else "-"
+
+
+def nice_range(values, margin=1.25):
+    """Log-axis limits on the 1-2-5 sequence around values, with a margin."""
+    steps = [m * 10.0 ** k for k in range(-4, 5) for m in (1, 2, 5)]
+    return (max(v for v in steps if v <= min(values) / margin), min(v for v in steps if v >= max(values) * margin))
+
+
+def plot(rows, path):
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    have = [r for r in rows if r["corner_rms"] or r["dense_rms"]]
+    xlim = nice_range([float(r["seconds"]) for r in have])
+    ylim = nice_range([float(r[k]) for r in have for k in ("corner_rms", "dense_rms") if r[k]] + [0.01])
+    steps = [m * 10.0 ** e for e in range(-4, 5) for m in (1, 2, 5)]
+    decades = lambda lim: [10.0 ** i for i in range(math.ceil(math.log10(lim[0]) - 1e-9),
+                                                    math.floor(math.log10(lim[1]) + 1e-9) + 1)]
+    pw, ph, left, top = 400, 360, 120, 50
+    width = max(left + len(scenes) * (pw + 40) + 10, 900)
+    per_row = (width - left) // 380
+    styles = [("ours", "corner_rms", (31, 119, 180), "o", "ours, cage corners"),
+              ("cycles", "corner_rms", (214, 39, 40), "s", "Cycles, cage corners"),
+              ("ours", "dense_rms", (44, 160, 44), "^", "ours, dense (patches)"),
+              ("cycles_dense", "dense_rms", (255, 127, 14), "d", "Cycles, dense (grid)")]
+    c = plot_png.Canvas(width, top + ph + 90 + 30 * math.ceil(len(styles) / per_row) + 40)
+    for k, sc in enumerate(scenes):
+        x0 = left + k * (pw + 40)
+        ax = plot_png.LogAxes(c, (x0, top, x0 + pw, top + ph), xlim, ylim, "wall time (s)",
+                              "relative RMS error" if k == 0 else "", sc)
+        ax.frame(decades(xlim), [v for v in steps if ylim[0] <= v <= ylim[1]], fmt_y=lambda v: f"{v * 100:g}%",
+                 ylabels=(k == 0))
+        ax.hline(0.01, (120, 120, 120), "1% goal")
+        for method, col, color, marker, _ in styles:
+            sel = [r for r in have if r["scene"] == sc and r["method"] == method and r[col]]
+            sel.sort(key=lambda r: float(r["seconds"]))
+            ax.polyline([(float(r["seconds"]), float(r[col])) for r in sel], color, marker,
+                        dash=6 if col == "dense_rms" else 0, labels=[r["setting"] for r in sel],
+                        label_side="r" if method == "ours" else "l")
+    y = top + ph + 70
+    for i, (_, col, color, marker, text) in enumerate(styles):
+        x, yy = left + (i % per_row) * 380, y + 30 * (i // per_row)
+        c.line(x - 14, yy + 7, x + 14, yy + 7, color, 2, dash=6 if col == "dense_rms" else 0)
+        c.dot(x, yy + 7, 6, color, marker)
+        c.text(x + 24, yy, text, (0, 0, 0), 2)
+    y += 30 * math.ceil(len(styles) / per_row) + 6
+    c.text(left, y, "Error: against Cycles at 16,384 spp (cage corners) and 4,096 spp (dense grid). "
+           "Time: export + solve + write-back (ours), the bake operator (Cycles).", (90, 90, 90), 1)
+    c.text(left, y + 14, "Labels: preset (ours), samples per pixel (Cycles). 2 cores, shared: see the CSV's load column.",
+           (90, 90, 90), 1)
+    c.save(path)
+
+
+def main():
+    opt = options()
+    os.makedirs(OUT, exist_ok=True)
+    if opt["plot_only"]:
+        with open(CSV) as f:
+            rows = list(csv.DictReader(f))
+        report(rows)
+        plot(rows, PNG)
+        print("wrote", PNG)
+        return
+    pkg = load_addon()
+    engine = pkg.bake.load_engine()
+    print(f"engine: {engine.__file__}; cores {os.cpu_count()}; load average at start {os.getloadavg()}")
+    rows, details = [], {}
+    for name in opt["scenes"]:
+        frame = SCENES[name]
+        if name == opt["scenes"][0]:
+            cycles_bake(open_scene(name, frame), 1)          # warm-up, untimed
+        for spp in opt["spp"]:
+            rows.append(run_cycles(name, frame, spp))
+            print("ROW", rows[-1], flush=True)
+        for spp in opt["dense_spp"]:
+            rows.append(run_cycles_dense(name, frame, spp))
+            print("ROW", rows[-1], flush=True)
+        times = {}
+        for preset in opt["presets"]:
+            if preset == "reference":
+                if "high" not in times or "default" not in times:
+                    continue
+                predicted = times["high"] ** 2 / times["default"]
+                if predicted > opt["max_seconds"]:
+                    print(f"{name}: reference preset skipped (predicted {predicted:.0f} s)", flush=True)
+                    continue
+            row, detail = run_ours(pkg, name, frame, preset, opt["max_seconds"])
+            rows.append(row)
+            print("ROW", row, flush=True)
+            if detail is not None:
+                times[preset] = float(row["seconds"])
+                if preset == "default":
+                    details[label(name, frame)] = detail
+                    print(breakdown(label(name, frame), detail), flush=True)
+        with open(CSV if not opt["quick"] else CSV.replace(".csv", "_quick.csv"), "w", newline="") as f:
+            w = csv.DictWriter(f, FIELDS)
+            w.writeheader()
+            w.writerows(rows)
+    report(rows)
+    for sc, d in details.items():
+        print(breakdown(sc, d))
+    png = PNG if not opt["quick"] else PNG.replace(".png", "_quick.png")
+    plot(rows, png)
+    print(f"\nwrote {png}; load average at end {os.getloadavg()}")
+
+
+if __name__ == "__main__":
+    main()

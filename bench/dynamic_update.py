@@ -1,0 +1,173 @@
+"""Dynamic update cost: per-frame incremental update against a full re-solve of the same frame.
+
+    blender -b --factory-startup --python bench/dynamic_update.py -- [preset] [frames] [full_repeats] [scenes]
+
+preset: draft (default) | default | high; frames: frames played per scene (default 8);
+full_repeats: full re-solves timed per scene (default 2); scenes: comma-separated names (all). Scenes:
+
+  animated_room  the sample: a box moves and the point lamp ramps 30 W -> 120 W every frame
+  room_20k       a 4 m room of ~20k vertices, one 0.4 m box moving across the floor, lamp fixed
+  room_10k       the same room at ~10k vertices: does playback with write-back keep 24 fps?
+
+Incremental = what live update does on a frame change (export, diff, Solver.update(), colours,
+write-back) through the add-on's own handler; "update" is the engine's Solver.update() alone,
+"frame" the whole scene.frame_set() (depsgraph evaluation, handlers, write-back). Full = a new Solver
+and solve() of the same frame's export. Medians; no timed asserts. The engine reports no dB cache
+size, so none is shown.
+"""
+import os
+import statistics
+import sys
+import time
+
+import bpy
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tests", "addon"))
+sys.path.insert(0, os.path.join(ROOT, "sample_blends"))
+from conftest import load_package  # noqa: E402
+import make_samples as ms  # noqa: E402
+
+args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+PRESET = (args[0] if args else "draft").upper()
+FRAMES = int(args[1]) if len(args) > 1 else 8
+FULL_REPEATS = int(args[2]) if len(args) > 2 else 2
+SCENES = args[3].split(",") if len(args) > 3 else ["animated_room", "room_20k", "room_10k"]
+
+pkg = load_package()
+pkg.register()
+live = pkg.live_update
+
+
+def grid(origin, u, v, nu, nv):
+    """(verts, quads) of a nu x nv grid spanning origin + [0,1]u + [0,1]v."""
+    a, b = np.meshgrid(np.linspace(0, 1, nu + 1), np.linspace(0, 1, nv + 1))
+    verts = np.asarray(origin) + a.ravel()[:, None] * np.asarray(u) + b.ravel()[:, None] * np.asarray(v)
+    i = np.arange(nv)[:, None] * (nu + 1) + np.arange(nu)[None, :]
+    quads = np.stack([i, i + 1, i + nu + 2, i + nu + 1], -1).reshape(-1, 4)
+    return verts, quads
+
+
+def room_scene(vertices):
+    """A 4 x 4 x 3 m room split into quads (about `vertices` vertices), a point lamp under the
+    ceiling and a 0.4 m box crossing the floor over frames 1-24 (linear keys)."""
+    sc = ms.new_scene()
+    sc.frame_start, sc.frame_end = 1, 24
+    W, H = 4.0, 3.0
+    # 2 walls of 4 x 4 (floor, ceiling) and 4 of 4 x 3: n x n and n x 3n/4 quads
+    n = int(round(np.sqrt(vertices / (2 + 4 * 0.75))))
+    m = max(1, int(round(0.75 * n)))
+    sides = [((-2, -2, 0), (W, 0, 0), (0, W, 0), n, n, 1),        # floor
+             ((-2, -2, H), (0, W, 0), (W, 0, 0), n, n, 0),        # ceiling
+             ((-2, -2, 0), (0, 0, H), (W, 0, 0), m, n, 0),
+             ((-2, 2, 0), (W, 0, 0), (0, 0, H), n, m, 0),
+             ((-2, -2, 0), (0, W, 0), (0, 0, H), n, m, 0),
+             ((2, -2, 0), (0, 0, H), (0, W, 0), m, n, 0)]
+    verts, faces, mats, base = [], [], [], 0
+    for o, u, v, nu, nv, mat in sides:
+        vs, qs = grid(o, u, v, nu, nv)
+        verts.append(vs)
+        faces.append(qs + base)
+        mats.append(np.full(len(qs), mat))
+        base += len(vs)
+    verts, faces, mats = np.concatenate(verts), np.concatenate(faces), np.concatenate(mats)
+    me = bpy.data.meshes.new("Room")
+    me.vertices.add(len(verts))
+    me.vertices.foreach_set("co", verts.astype(np.float32).ravel())
+    me.loops.add(faces.size)
+    me.loops.foreach_set("vertex_index", faces.astype(np.int32).ravel())
+    me.polygons.add(len(faces))
+    me.polygons.foreach_set("loop_start", (np.arange(len(faces)) * 4).astype(np.int32))
+    me.polygons.foreach_set("loop_total", np.full(len(faces), 4, np.int32))
+    me.materials.append(ms.diffuse("Wall", (0.7, 0.7, 0.7)))
+    me.materials.append(ms.diffuse("Floor", (0.5, 0.55, 0.5)))
+    me.polygons.foreach_set("material_index", mats.astype(np.int32))
+    me.update()
+    me.validate()
+    ob = bpy.data.objects.new("Room", me)
+    sc.collection.objects.link(ob)
+    b = ms.box("Box", (0.4, 0.4, 0.4), (-1.2, 0.3, 0.0), 0.0, ms.diffuse("BoxRed", (0.8, 0.2, 0.15)))
+    b.keyframe_insert("location", frame=1)
+    b.location = (1.2, 0.3, 0.0)
+    b.keyframe_insert("location", frame=24)
+    ms.linear_keys(b)
+    ms.lamp("Lamp", 'POINT', (0.0, -0.5, 2.7), energy=300.0, shadow_soft_size=0.0)
+    sc.frame_set(1)
+    return sc
+
+
+def animated_room():
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_blends", "animated_room.blend"))
+    return bpy.context.scene
+
+
+def med(xs):
+    return statistics.median(xs) if xs else float("nan")
+
+
+def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
+    scene = make()
+    scene.radiosity.preset = PRESET
+    scene.radiosity.live_update = True
+    verts = sum(len(o.data.vertices) for o in scene.objects if o.type == 'MESH')
+    scene.frame_set(scene.frame_start)             # live update's first, full solve
+    first = live.last_sync[scene.name]
+    assert first["mode"] == "full", first
+    span = scene.frame_end - scene.frame_start
+    todo = sorted({scene.frame_start + max(1, round(span * (i + 1) / frames)) for i in range(frames)})
+    inc, upd, frame_wall, touched, writes = [], [], [], [], []
+    for f in todo:
+        t = time.perf_counter()
+        scene.frame_set(f)
+        frame_wall.append(time.perf_counter() - t)
+        info = live.last_sync[scene.name]
+        assert info["frame"] == f and info["mode"] == "incremental", info
+        inc.append(info["seconds_total"])
+        upd.append(info["seconds_solve"])
+        writes.append(info["seconds_write"])
+        touched.append(info["touched_points"] / max(1, info["points"]))
+    # full re-solves of frames just played (same export, a new Solver)
+    full = []
+    for f in todo[-full_repeats:]:
+        with live.suspended():
+            scene.frame_set(f)
+        job = pkg.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
+        t = time.perf_counter()
+        job.solve()
+        full.append(time.perf_counter() - t)
+    live.forget(scene.name)
+    scene.radiosity.live_update = False
+    return dict(scene=name, vertices=verts, points=first["points"], frames=len(todo), full=med(full),
+                update=med(upd), incremental=med(inc), frame=med(frame_wall), write=med(writes),
+                touched=med(touched), first=first["seconds_solve"])
+
+
+def main():
+    print(f"Radiosity dynamic update bench: preset {PRESET.lower()}, {FRAMES} frames a scene, "
+          f"{FULL_REPEATS} full re-solves a scene; medians; 2 cores (shared)")
+    makers = {"animated_room": animated_room, "room_20k": lambda: room_scene(20000),
+              "room_10k": lambda: room_scene(10000)}
+    rows = [run(name, makers[name]) for name in SCENES]
+    head = (f"{'scene':14} {'vertices':>8} {'points':>7} {'full s':>8} {'update s':>9} {'ratio':>6} "
+            f"{'touched':>8} {'live s':>8} {'write ms':>8} {'frame s':>8} {'fps':>6}")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        ratio = r["full"] / r["update"] if r["update"] > 0 else float("inf")
+        print(f"{r['scene']:14} {r['vertices']:8d} {r['points']:7d} {r['full']:8.3f} {r['update']:9.3f} "
+              f"{ratio:6.1f} {100 * r['touched']:7.1f}% {r['incremental']:8.3f} {1000 * r['write']:8.2f} "
+              f"{r['frame']:8.3f} {1 / r['frame']:6.1f}")
+    print()
+    print("full s: new Solver + solve() of a played frame; update s: Solver.update() of a frame change;")
+    print("ratio = full / update (goal 50); touched: receiving points the update recomputed (engine's")
+    print("touched_points / points); live s: export + diff + update + colours + write-back;")
+    print("frame s: scene.frame_set() wall time with live update on (what playback waits for).")
+    for r in rows:
+        if r["scene"] == "room_10k":
+            verdict = "yes" if r["frame"] <= 1 / 24 else "no"
+            print(f"24 fps with write-back at ~10k vertices ({r['vertices']} vertices, {r['points']} points): "
+                  f"{verdict} ({1 / r['frame']:.1f} fps, {1000 * r['frame']:.0f} ms a frame)")
+
+
+main()
