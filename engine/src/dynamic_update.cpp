@@ -70,11 +70,22 @@ namespace {
 constexpr bool kWhole = false;
 }
 
+// A fresh solve measures its residual against the direct light that lands; when the lamps, world
+// or emission change, so does that scale (a lamp four times as strong: four times the scale).
+void Solver::Impl::apply_direct_delta() {
+  double before = injected_power;
+  injected_power += landed_power();
+  if (before > 0 && injected_power > 0) reference_power *= injected_power / before;
+  apply_delta();
+  if (reference_power == 0)  // the first light: as a solve starts
+    for (double p : shooter_power()) reference_power += p;
+}
+
 void Solver::Impl::change_world(const dvec3& world) {
   Source delta = world_source(world - scene.world, settings.samples_direct);
   gather_all([](int) { return true; }, [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
              [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { delta.gather(i, p, batch); }, kWhole);
-  apply_delta();
+  apply_direct_delta();
   scene.world = world;
   touched.assign(mesh.points.size(), 1);
 }
@@ -92,7 +103,7 @@ void Solver::Impl::change_lamp(int index, const Lamp& lamp) {
                for (const Source& s : sources) s.gather(i, p, batch);
              },
              kWhole);
-  apply_delta();
+  apply_direct_delta();
   scene.lamps[index] = lamp;
   touched.assign(mesh.points.size(), 1);
 }
@@ -124,7 +135,7 @@ void Solver::Impl::change_material(int index, const Material& m) {
                for (const Source& s : sources) s.gather(i, p, batch);
              },
              kWhole);
-  apply_delta();
+  apply_direct_delta();
 }
 
 void Solver::Impl::place(int object, const MeshDesc& m, const RefinedMesh& refined) {

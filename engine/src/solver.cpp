@@ -108,6 +108,14 @@ std::vector<Source> Solver::Impl::reflected_sources(double scale, const std::vec
   return patch_sources(shot, settings.samples_indirect, scale, only);
 }
 
+double Solver::Impl::landed_power() const {
+  double power = 0.0;
+  for (const Patch& patch : mesh.patches)
+    for (int c = 0; c < 4; ++c)
+      power += 0.25 * patch.area * channel_sum(delta_front[patch.point[c]] + delta_back[patch.point[c]]);
+  return power;
+}
+
 // Direct light at full sample density; what lands becomes unshot radiance.
 bool Solver::Impl::inject() {
   std::vector<Source> sources = direct_sources();
@@ -115,9 +123,7 @@ bool Solver::Impl::inject() {
     for (const Source& s : sources) s.gather(i, p, batch);
   });
   if (!complete) return false;
-  for (const Patch& patch : mesh.patches)
-    for (int c = 0; c < 4; ++c)
-      injected_power += 0.25 * patch.area * channel_sum(delta_front[patch.point[c]] + delta_back[patch.point[c]]);
+  injected_power += landed_power();
   apply_delta();
   ++stats.shots;
   injected = true;

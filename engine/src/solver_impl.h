@@ -69,6 +69,8 @@ struct Solver::Impl {
   }
   // Adds the gathered delta to the solution and, reflected, to the unshot radiance.
   void apply_delta();
+  double landed_power() const;  // of the gathered delta, radiance x area over both sides
+  void apply_direct_delta();    // apply_delta() for a change of direct light: the residual's scale follows
 
   // Sources of a gather, `scale` times their strength: everything, or only the shooters `only`
   // marks (one flag per shooter).
