@@ -30,7 +30,6 @@ error (Cycles' time at our error, interpolated on the log-log line between its n
 counts) and, for the default preset, where the corner error sits (contact / junction / other corners).
 """
 import csv
-import importlib.util
 import math
 import os
 import statistics
@@ -43,6 +42,8 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
 sys.path.insert(0, os.path.join(ROOT, "bench"))
+sys.path.insert(0, os.path.join(ROOT, "tests", "addon"))
+from conftest import load_package  # noqa: E402  (the add-on from addon/, its engine from build/engine)
 import compare_engine  # noqa: E402  (grid_lookup, face_frames; puts build/engine on sys.path)
 import cycles_settings  # noqa: E402
 import make_references  # noqa: E402  (grid_mesh: the dense layout)
@@ -75,19 +76,6 @@ def options():
                    if s],
         max_seconds=float(get("--max-seconds", 600)),
         plot_only="--plot-only" in argv, quick=quick)
-
-
-def load_addon():
-    """The add-on package from the source tree as `dynamic_radiosity` (its engine: build/engine)."""
-    for k in [k for k in sys.modules if k.split(".")[0] == "dynamic_radiosity"]:
-        del sys.modules[k]
-    spec = importlib.util.spec_from_file_location(
-        "dynamic_radiosity", os.path.join(ROOT, "addon", "__init__.py"),
-        submodule_search_locations=[os.path.join(ROOT, "addon")])
-    pkg = importlib.util.module_from_spec(spec)
-    sys.modules["dynamic_radiosity"] = pkg
-    spec.loader.exec_module(pkg)
-    return pkg
 
 
 def open_scene(name, frame):
@@ -482,7 +470,7 @@ def main():
         plot(rows, PNG)
         print("wrote", PNG)
         return
-    pkg = load_addon()
+    pkg = load_package()
     engine = pkg.bake.load_engine()
     print(f"engine: {engine.__file__}; cores {os.cpu_count()}; load average at start {os.getloadavg()}")
     rows, details = [], {}
