@@ -20,6 +20,9 @@ namespace radiosity {
 
 namespace {
 
+// The gathers of an update are not cancellable: half of one would break the invariant.
+constexpr bool kWhole = false;
+
 // Around the object's vertices, before (mesh) or after (refined and transformed) a move.
 Sphere bounds_of(const std::vector<dvec3>& points, double margin) {
   dvec3 lo(INFINITY), hi(-INFINITY);
@@ -65,11 +68,6 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   return stats;
 }
 
-// The gathers of an update are not cancellable: half of one would break the invariant.
-namespace {
-constexpr bool kWhole = false;
-}
-
 // A fresh solve measures its residual against the direct light that lands; when the lamps, world
 // or emission change, so does that scale (a lamp four times as strong: four times the scale).
 void Solver::Impl::apply_direct_delta() {
@@ -81,13 +79,19 @@ void Solver::Impl::apply_direct_delta() {
     for (double p : shooter_power()) reference_power += p;
 }
 
-void Solver::Impl::change_world(const dvec3& world) {
-  Source delta = world_source(world - scene.world, settings.samples_direct);
-  gather_all([](int) { return true; }, [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
-             [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { delta.gather(i, p, batch); }, kWhole);
+void Solver::Impl::gather_direct_change(const std::vector<Source>& sources) {
+  gather_all([](int) { return true; }, [this] { return delta_batch(); },
+             [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+               for (const Source& s : sources) s.gather(i, p, batch);
+             },
+             kWhole);
   apply_direct_delta();
-  scene.world = world;
   touched.assign(mesh.points.size(), 1);
+}
+
+void Solver::Impl::change_world(const dvec3& world) {
+  gather_direct_change({world_source(world - scene.world, settings.samples_direct)});
+  scene.world = world;
 }
 
 void Solver::Impl::change_lamp(int index, const Lamp& lamp) {
@@ -98,14 +102,8 @@ void Solver::Impl::change_lamp(int index, const Lamp& lamp) {
     l.color *= sign;
     sources.push_back(lamp_source(l, settings.samples_direct, settings.near_factor));
   }
-  gather_all([](int) { return true; }, [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
-             [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
-               for (const Source& s : sources) s.gather(i, p, batch);
-             },
-             kWhole);
-  apply_direct_delta();
+  gather_direct_change(sources);
   scene.lamps[index] = lamp;
-  touched.assign(mesh.points.size(), 1);
 }
 
 void Solver::Impl::change_material(int index, const Material& m) {
@@ -128,14 +126,7 @@ void Solver::Impl::change_material(int index, const Material& m) {
   }
   // Emitted light: the difference, shot like all emission.
   std::vector<Source> sources = patch_sources(emitted, settings.samples_direct, 1.0, nullptr);
-  if (sources.empty()) return;
-  touched.assign(mesh.points.size(), 1);
-  gather_all([](int) { return true; }, [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
-             [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
-               for (const Source& s : sources) s.gather(i, p, batch);
-             },
-             kWhole);
-  apply_direct_delta();
+  if (!sources.empty()) gather_direct_change(sources);
 }
 
 void Solver::Impl::place(int object, const MeshDesc& m, const RefinedMesh& refined) {
@@ -170,7 +161,7 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   }
   auto on_object = [&](int i) { return i >= o.point_begin && i < o.point_end; };
   auto elsewhere = [&](int i) { return !on_object(i); };
-  auto plain = [this] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); };
+  auto plain = [this] { return delta_batch(); };
   auto gather_from = [](const std::vector<Source>& sources) {
     return [&sources](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
       for (const Source& s : sources) s.gather(i, p, batch);
@@ -205,7 +196,7 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   apply_delta();
 
   // Everything else: only the rays the move changed, for receivers and sources it may stand between.
-  gather_all(elsewhere, [&] { return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), object); },
+  gather_all(elsewhere, [&] { return delta_batch(object); },
              [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
                long long pushed = batch.rays_pushed();
                for (const Source& s : others)

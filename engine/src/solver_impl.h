@@ -63,9 +63,11 @@ struct Solver::Impl {
   bool gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& gather_one, bool cancellable = true);
   template <class Gather>
   bool gather_all(Gather&& gather_one) {
-    return gather_all([](int) { return true; },
-                      [this]() { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); },
-                      gather_one);
+    return gather_all([](int) { return true; }, [this] { return delta_batch(); }, gather_one);
+  }
+  // A batch adding into delta_* (with `changed_object`: only what its move changed).
+  OcclusionBatch delta_batch(int changed_object = -1) {
+    return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed_object);
   }
   // Adds the gathered delta to the solution and, reflected, to the unshot radiance.
   void apply_delta();
@@ -90,6 +92,7 @@ struct Solver::Impl {
 
   // dynamic_update.cpp
   const SolveStats& update(const ProgressCallback& progress);
+  void gather_direct_change(const std::vector<Source>& sources);  // everywhere, then applied
   void change_world(const dvec3& world);
   void change_lamp(int index, const Lamp& lamp);
   void change_material(int index, const Material& material);
