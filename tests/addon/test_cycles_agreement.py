@@ -2,14 +2,15 @@
 
 Metric (the issue's): relative RMS (reference.relative_rms: sqrt(mean |v - r|^2) / mean(r), all
 channels) over every non-emitting face corner of the scene, i.e. the values a user sees.
-The issue asks for 2% (default preset) and 1% (high). Measured on this machine (engine of 2025-11):
+The issue asks for 2% (default preset) and 1% (high). Measured on this machine (engine of 2026-11-22,
+near cells split for visibility; solve times on a quiet machine):
 
-    scene             default (time)   high
-    cornell_box        15.0%  (31 s)   not measured: > 16 min on 2 shared cores
-    subsurf_room        9.5%  (40-61 s)
-    animated_room@1     8.5%  (42 s)
-    animated_room@12    8.1%  (42 s)
-    animated_room@24    8.6%  (30 s)
+    scene             default (solve)
+    cornell_box        12.6%  (4.5 s)
+    subsurf_room        9.1%  (8 s)
+    animated_room@1     6.2%  (11 s)
+    animated_room@12    5.1%  (10 s)
+    animated_room@24    6.2%  (10 s)
 
 With DR_SLOW=1 the high cases assert the issue's 1% (no measured bound yet: expect failures).
 
@@ -39,11 +40,11 @@ SLOW = os.environ.get("DR_SLOW") == "1"
 
 # (scene, frame, preset) -> relative RMS bound (measured + margin)
 BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.165,
-    ("subsurf_room", None, "DEFAULT"): 0.105,
-    ("animated_room", 1, "DEFAULT"): 0.095,
-    ("animated_room", 12, "DEFAULT"): 0.095,
-    ("animated_room", 24, "DEFAULT"): 0.095,
+    ("cornell_box", None, "DEFAULT"): 0.135,
+    ("subsurf_room", None, "DEFAULT"): 0.10,
+    ("animated_room", 1, "DEFAULT"): 0.07,
+    ("animated_room", 12, "DEFAULT"): 0.06,
+    ("animated_room", 24, "DEFAULT"): 0.07,
 }
 FAST = {("cornell_box", None, "DEFAULT"), ("subsurf_room", None, "DEFAULT")}
 ISSUE_BOUND = {"DEFAULT": 0.02, "HIGH": 0.01}
