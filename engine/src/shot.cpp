@@ -107,10 +107,14 @@ struct ShotBuilder {
     e.cell_begin = int(shot.cells.size());
     if (patch.area > 0) {
       int k = cells_per_side;
-      dvec3 corners[4];
-      for (int c = 0; c < 4; ++c) corners[c] = mesh.vertices[patch.vertex[c]];
+      ShotPatch light;
+      for (int c = 0; c < 4; ++c) {
+        light.corner[c] = mesh.vertices[patch.vertex[c]];
+        light.point[c] = patch.point[c];
+        for (int s = 0; s < 2; ++s) light.radiance[c][s] = scale * unshot[p][c * 2 + s];
+      }
       std::vector<Cell> cells(k * k);
-      bilinear_cells(corners, k, cells.data());
+      bilinear_cells(light.corner, k, cells.data());
       const std::vector<uint8_t>* seen[2] = {nullptr, nullptr};  // per cell, a bit per corner it sees
       for (int s = 0; s < 2; ++s) {
         bool any = false;
@@ -127,24 +131,18 @@ struct ShotBuilder {
           }
         });
       }
+      int index = int(shot.patches.size());
+      shot.patches.push_back(light);
       for (int j = 0; j < k; ++j)
         for (int i = 0; i < k; ++i) {
           ShotCell sc;
           sc.cell = cells[j * k + i];
           if (!(sc.cell.area > 0)) continue;
-          double u = (i + 0.5) / k, v = (j + 0.5) / k;
-          double weight[4] = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
+          sc.patch = index;
+          sc.u0 = double(i) / k, sc.v0 = double(j) / k, sc.size = 1.0 / k;
           for (int s = 0; s < 2; ++s) {
-            uint8_t bits = seen[s] ? (*seen[s])[j * k + i] : 0;
-            dvec3 sum(0.0);
-            double total = 0.0;
-            for (int c = 0; c < 4; ++c) {
-              const dvec3& value = unshot[p][c * 2 + s];
-              if (!(bits & (1 << c))) continue;  // by visibility alone: linear in the radiance
-              sum += weight[c] * value;
-              total += weight[c];
-            }
-            sc.radiance[s] = total > 0 ? scale * sum / total : dvec3(0.0);
+            sc.seen[s] = seen[s] ? (*seen[s])[j * k + i] : 0;  // by visibility alone: linear in the radiance
+            sc.radiance[s] = radiance_at(light, s, sc.seen[s], sc.u0 + 0.5 * sc.size, sc.v0 + 0.5 * sc.size);
           }
           shot.cells.push_back(sc);
         }
@@ -205,8 +203,26 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
   return shot;
 }
 
+dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, double v) {
+  double weight[4] = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
+  dvec3 sum(0.0);
+  double total = 0.0;
+  for (int c = 0; c < 4; ++c) {
+    if (!(corners & (1 << c))) continue;
+    sum += weight[c] * patch.radiance[c][side];
+    total += weight[c];
+  }
+  return total > 0 ? sum / total : dvec3(0.0);
+}
+
 bool same_light(const Shot& a, const Shot& b) {
-  if (a.elements.size() != b.elements.size() || a.cells.size() != b.cells.size()) return false;
+  if (a.elements.size() != b.elements.size() || a.cells.size() != b.cells.size() ||
+      a.patches.size() != b.patches.size())
+    return false;
+  for (size_t i = 0; i < a.patches.size(); ++i)
+    for (int c = 0; c < 4; ++c)
+      for (int side = 0; side < 2; ++side)
+        if (a.patches[i].radiance[c][side] != b.patches[i].radiance[c][side]) return false;
   for (size_t i = 0; i < a.elements.size(); ++i)
     for (int side = 0; side < 2; ++side)
       if (a.elements[i].radiance[side] != b.elements[i].radiance[side]) return false;
@@ -221,6 +237,9 @@ Shot scaled(Shot shot, double scale) {
     for (dvec3& r : e.radiance) r *= scale;
   for (ShotCell& c : shot.cells)
     for (dvec3& r : c.radiance) r *= scale;
+  for (ShotPatch& p : shot.patches)
+    for (auto& corner : p.radiance)
+      for (dvec3& r : corner) r *= scale;
   return shot;
 }
 
@@ -247,20 +266,125 @@ void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centr
 constexpr double kSplitRadii = 2.0;
 constexpr int kSplitDepth = 3;
 
-// An exactly integrated cell (or a piece of one), sending radiance `rad`.
-void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Cell& cell, const dvec3& rad, int depth,
-                OcclusionBatch& batch) {
-  dvec3 d = cell.centre - x;
-  if (depth < kSplitDepth && glm::dot(d, d) < kSplitRadii * kSplitRadii * cell.radius * cell.radius) {
-    Cell pieces[4];
-    bilinear_cells(cell.corners, 2, pieces);
-    for (const Cell& piece : pieces)
-      if (piece.area > 0) exact_cell(receiver, x, n, piece, rad, depth + 1, batch);
+// What lights the pieces of one cell near a receiver: its patch, the side facing the receiver, and
+// the patch corners that light the part of the cell in front of the receiver's plane and the part
+// behind it.
+struct NearLight {
+  const ShotPatch& patch;
+  int side;
+  uint8_t corners[2];
+};
+
+// A piece of a cell: the cell itself or a quarter of a piece, with its square in the patch's (u, v).
+struct Piece {
+  Cell cell;
+  double u0, v0, size;
+};
+
+// Centroid in (u, v) of the part of the piece on side `part` (0: h > 0) of the receiver's plane,
+// h being the corners' heights above it (linear across a planar piece).
+void part_centroid(const Piece& p, const double h[4], int part, double& u, double& v) {
+  const double su[4] = {p.u0, p.u0 + p.size, p.u0 + p.size, p.u0};
+  const double sv[4] = {p.v0, p.v0, p.v0 + p.size, p.v0 + p.size};
+  double pu[8], pv[8];
+  int count = 0;
+  for (int i = 0; i < 4; ++i) {
+    int j = (i + 1) % 4;
+    double a = part == 0 ? h[i] : -h[i], b = part == 0 ? h[j] : -h[j];
+    if (a >= 0) pu[count] = su[i], pv[count++] = sv[i];
+    if ((a >= 0) != (b >= 0)) {
+      double t = a / (a - b);
+      pu[count] = su[i] + t * (su[j] - su[i]), pv[count++] = sv[i] + t * (sv[j] - sv[i]);
+    }
+  }
+  double area = 0.0, cu = 0.0, cv = 0.0;
+  for (int i = 0; i < count; ++i) {
+    int j = (i + 1) % count;
+    double cross = pu[i] * pv[j] - pu[j] * pv[i];
+    area += cross;
+    cu += (pu[i] + pu[j]) * cross;
+    cv += (pv[i] + pv[j]) * cross;
+  }
+  if (std::fabs(area) > 1e-12 * p.size * p.size) {
+    u = cu / (3 * area), v = cv / (3 * area);
+  } else {
+    u = p.u0 + 0.5 * p.size, v = p.v0 + 0.5 * p.size;
+  }
+}
+
+// An exactly integrated piece of a cell. Each part of it on one side of the receiver's plane is
+// seen through one ray to that part's centroid and sends the patch's radiance interpolated there:
+// the cell's value at its centre would be wrong where the centre lies under the receiver's own
+// surface (a floor cell half under a box, seen from the box's foot: the centre's light is the
+// dark floor under the box, while all that the foot sees is the lit half).
+void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, const NearLight& light, int depth,
+                 OcclusionBatch& batch) {
+  dvec3 d = p.cell.centre - x;
+  if (depth < kSplitDepth && glm::dot(d, d) < kSplitRadii * kSplitRadii * p.cell.radius * p.cell.radius) {
+    Cell cells[4];
+    bilinear_cells(p.cell.corners, 2, cells);
+    double half = 0.5 * p.size;
+    for (int j = 0; j < 2; ++j)
+      for (int i = 0; i < 2; ++i) {
+        const Cell& c = cells[j * 2 + i];
+        if (c.area > 0) exact_piece(receiver, x, n, {c, p.u0 + i * half, p.v0 + j * half, half}, light, depth + 1, batch);
+      }
     return;
   }
-  SideFactors f = cell_form_factor(cell, x, n);
+  SideFactors f = cell_form_factor(p.cell, x, n);
   if (f.front == 0 && f.back == 0) return;
-  batch.to_point(receiver, x, n, cell.centre, cell.normal, rad * f.front, rad * f.back);
+  // One ray to `target` carries the light of the part on side `part` of the receiver's plane.
+  auto send = [&](int part, double u, double v, const dvec3& target) {
+    dvec3 e = radiance_at(light.patch, light.side, light.corners[part], u, v) * (part == 0 ? f.front : f.back);
+    if (!is_zero(e))
+      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0 ? e : dvec3(0.0), part == 0 ? dvec3(0.0) : e);
+  };
+  if (f.front > 0 && f.back > 0) {
+    double h[4];
+    for (int c = 0; c < 4; ++c) h[c] = glm::dot(n, p.cell.corners[c] - x);
+    for (int part = 0; part < 2; ++part) {
+      double u, v;
+      part_centroid(p, h, part, u, v);
+      send(part, u, v, bilinear(light.patch.corner, u, v));
+    }
+    return;
+  }
+  send(f.front > 0 ? 0 : 1, p.u0 + 0.5 * p.size, p.v0 + 0.5 * p.size, p.cell.centre);
+}
+
+// Starts the exact integration of a cell. Where the receiver's surface stands on the cell's patch
+// (a box on the floor) it divides the patch: the cell's centre sees only patch corners on its own
+// side of the receiver's plane, and the part of the cell on the other side is lit by the corners
+// there. Where the centre sees corners on both sides, something else divides the patch (a wall
+// between two rooms) and the centre's view holds for the whole cell.
+//
+// A point takes nothing from the patches it lies on. They are flat, or curved so that a point on
+// them sees them edge-on; but the point sits a little off their corners' planes, which Lambert's
+// formula would take for a view of a whole quarter of the sky, lit by the point's own light.
+void exact_cell(int receiver, const dvec3& x, const dvec3& n, const ShotCell& sc, const ShotPatch& patch, int side,
+                OcclusionBatch& batch) {
+  for (int point : patch.point)
+    if (point == receiver) return;
+  uint8_t seen = sc.seen[side];
+  NearLight light{patch, side, {seen, seen}};
+  if (seen != 15) {
+    double tolerance = 1e-9 * sc.cell.radius;
+    bool above = false, below = false;
+    for (const dvec3& q : sc.cell.corners) {
+      double h = glm::dot(n, q - x);
+      above |= h > tolerance;
+      below |= h < -tolerance;
+    }
+    uint8_t front = 0;
+    for (int c = 0; c < 4; ++c) front |= (glm::dot(n, patch.corner[c] - x) > 0) << c;
+    uint8_t back = 15 & ~front;
+    bool one_side = seen && ((seen & ~front) == 0 || (seen & ~back) == 0);
+    if (above && below && front && back && one_side) light.corners[0] = front, light.corners[1] = back;
+  }
+  bool lit = false;
+  for (int c = 0; c < 4; ++c)
+    lit |= ((light.corners[0] | light.corners[1]) & (1 << c)) && !is_zero(patch.radiance[c][side]);
+  if (lit) exact_piece(receiver, x, n, {sc.cell, sc.u0, sc.v0, sc.size}, light, 0, batch);
 }
 
 // Beyond this many radii a cell's disc approximation differs from the exact factor by O((r/d)^4),
@@ -288,8 +412,8 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
             far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, cell.area, sc.radiance, batch);
             continue;
           }
-          const dvec3& rad = sc.radiance[glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1];
-          if (!is_zero(rad)) exact_cell(receiver, x, n, cell, rad, 0, batch);
+          exact_cell(receiver, x, n, sc, shot.patches[sc.patch], glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1,
+                     batch);
         }
         continue;
       }

@@ -22,9 +22,20 @@ namespace radiosity {
 // Unshot radiance of a patch, per corner and side: [corner * 2 + side], side 0 = front.
 using CornerUnshot = std::array<dvec3, 8>;
 
+// A shooting patch (or area lamp quad): its corners and the radiance it sends from each, per side.
+// Near a receiver its cells are integrated piece by piece, each piece lit by interpolation there.
+struct ShotPatch {
+  dvec3 corner[4];
+  dvec3 radiance[4][2];              // [corner][side], side 0 = front
+  int point[4] = {-1, -1, -1, -1};   // receiving points at the corners (none for lamps)
+};
+
 struct ShotCell {
   Cell cell;
-  dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // front, back
+  dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // at the centre, from the corners it sees; front, back
+  int patch = 0;                                 // in Shot::patches
+  double u0 = 0.0, v0 = 0.0, size = 1.0;         // the cell's square in its patch's (u, v)
+  uint8_t seen[2] = {15, 15};                    // a bit per patch corner its centre sees, per side
 };
 
 struct ShotElement {
@@ -40,6 +51,7 @@ struct ShotElement {
 struct Shot {
   std::vector<ShotElement> elements;
   std::vector<ShotCell> cells;
+  std::vector<ShotPatch> patches;
   std::vector<int> frontier;
   double near_factor = 3.0;
 };
@@ -58,6 +70,10 @@ struct ShotCache {
 Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, ShotCache* cache,
                   int node,
                   const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor);
+
+// Radiance a patch sends from side `side` at (u, v), interpolated over the corners in `corners`
+// (a bit each) alone.
+dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, double v);
 
 // Whether two shots of one shooter send the same light (same samples, same radiance).
 bool same_light(const Shot& a, const Shot& b);

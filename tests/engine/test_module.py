@@ -77,6 +77,28 @@ def test_rectangle_lamp_is_radiance_times_form_factor():
     assert radiance_near(solver, obj, (0, 0, 0))[1][0] == 0.0
 
 
+def test_box_standing_on_the_floor_is_lit_at_its_foot():
+    # Sun straight down: the box's sides see only the lit floor, which fills half of what a point at
+    # their foot sees (form factor 1/2 as the point nears the floor), so the foot's radiance is
+    # rho_box / 2 times the floor's, rho E / pi, plus under 7% the floor gets back from the box. The
+    # floor's patches run under the box: a cell whose centre lies under it is dark there.
+    scene, floor = floor_scene(6.0)
+    box_rho = 0.5
+    scene.add_sun_light((0, 0, -1), (3, 3, 3))
+    floor.add_to(scene, refine="bilinear", patch_size=0.5)
+    box = Mesh()
+    box.add_box((0.13, 0.21, 0.4), (0.8, 0.8, 0.8), scene.add_material((box_rho,) * 3), angle=0.3)
+    del box.faces[0], box.materials[0]  # standing open on the floor, as the samples' boxes do
+    obj = box.add_to(scene, refine="bilinear", patch_size=0.5)
+    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    solver.solve()
+    corners = np.array(box.positions)[np.concatenate(box.faces)]
+    foot = solver.corner_radiance(obj)[np.abs(corners[:, 2]) < 1e-9, 0]
+    expected = box_rho / 2 * RHO * 3 / math.pi
+    assert len(foot) == 8
+    assert foot.min() > 0.97 * expected and foot.max() < 1.1 * expected
+
+
 def test_arrays_progress_and_stats():
     scene, ids = cornell_box()
     solver = engine.Solver(scene, engine.Settings.preset("draft"))
