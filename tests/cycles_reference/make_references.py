@@ -1,6 +1,9 @@
 """Cycles reference bakes for the sample scenes.
 
     blender -b --factory-startup --python tests/cycles_reference/make_references.py [-- --samples N] [--only NAME] [--seed S]
+        [--corner-samples N] [--corners-only]
+
+--corners-only bakes the corner layout again into the existing files and keeps their dense layout.
 
 For each sample .blend (the animated room at frames 1, 12 and 24) this writes
 tests/cycles_reference/<scene>[_fNNN].npz with Cycles' COMBINED bake (emission included), settings as
@@ -8,8 +11,9 @@ in DESIGN.md section 4: no denoising, no adaptive sampling, no clamping, 64 diff
 
 Two layouts per mesh object, keyed by object name:
 
-  "<name>:corner"   (K,3) float32  (at "samples_corner" = 4 x samples, max 16384: these few points
-                    sit on junction lines where the noise is highest and they are cheap) baked into a CORNER-domain FLOAT_COLOR attribute on the object as
+  "<name>:corner"   (K,3) float32  (at "samples_corner", 262,144 unless told: these few points
+                    sit on junction lines where the noise is highest, and they are cheap; at 16,384
+                    two bakes of the subsurf room differed by 2.4% RMS) baked into a CORNER-domain FLOAT_COLOR attribute on the object as
                     it is in the file, one row per face corner in mesh loop order (exactly what
                     solver.corner_radiance(o) returns; for an object with a Subdivision Surface
                     modifier Blender maps each cage corner to its vertex on the subdivided mesh).
@@ -46,14 +50,11 @@ ATTR = "CyclesRef"
 
 def args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    samples, only, seed = 4096, None, 0
-    if "--samples" in argv:
-        samples = int(argv[argv.index("--samples") + 1])
-    if "--only" in argv:
-        only = argv[argv.index("--only") + 1]
-    if "--seed" in argv:     # for noise estimates: writes <scene>..._seedN.npz next to the references
-        seed = int(argv[argv.index("--seed") + 1])
-    return samples, only, seed
+    def value(flag, default, kind=int):
+        return kind(argv[argv.index(flag) + 1]) if flag in argv else default
+    # --seed S, for noise estimates, writes <scene>..._seedS.npz next to the references
+    return (value("--samples", 4096), value("--only", None, str), value("--seed", 0),
+            value("--corner-samples", 262144), "--corners-only" in argv)
 
 
 def configure(sc, samples, seed=0):
@@ -137,7 +138,7 @@ def max_edge(ob):
     return float(np.linalg.norm((p[nxt] - p) * s, axis=1).max())
 
 
-def run_scene(name, frame, samples, seed=0):
+def run_scene(name, frame, samples, seed, samples_corner, corners_only):
     path = os.path.join(SAMPLES_DIR, name + ".blend")
     bpy.ops.wm.open_mainfile(filepath=path)
     sc = bpy.context.scene
@@ -148,7 +149,8 @@ def run_scene(name, frame, samples, seed=0):
     data = {"samples": np.int32(samples), "frame": np.int32(sc.frame_current),
             "blender_version": np.array(bpy.app.version_string),
             "layout": np.array(__doc__.split("Two layouts", 1)[1])}
-    samples_corner = min(16384, 4 * samples)
+    out = os.path.join(HERE, name + (f"_f{frame:03d}" if frame is not None else "")
+                       + (f"_seed{seed}" if seed else "") + ".npz")
     sc.cycles.samples = samples_corner
     data["samples_corner"] = np.int32(samples_corner)
     corner, t_corner = bake(meshes, 'CORNER')
@@ -156,6 +158,15 @@ def run_scene(name, frame, samples, seed=0):
     for ob in meshes:
         data[ob.name + ":corner"] = corner[ob.name]
         data[ob.name + ":matrix_world"] = np.array(ob.matrix_world, np.float64)
+    data["seconds_corner"] = np.float64(t_corner)
+    n_corner = sum(len(v) for v in corner.values())
+    if corners_only:
+        with np.load(out) as old:
+            kept = {k: old[k] for k in old.files if k not in data}
+        np.savez_compressed(out, **{**kept, **data})
+        print(f"REF {os.path.basename(out)}: corner layout {n_corner} corners at {samples_corner} spp "
+              f"{t_corner:.1f} s (dense layout kept)", flush=True)
+        return
     # dense layout
     dg = bpy.context.evaluated_depsgraph_get()
     kinds = {}
@@ -183,12 +194,8 @@ def run_scene(name, frame, samples, seed=0):
             ob.data.vertices.foreach_get("co", co)
             data[ob.name + ":eval_pos"] = co.reshape(-1, 3).astype(np.float32)
             data[ob.name + ":eval_value"] = dense[ob.name]
-    n_corner = sum(len(v) for v in corner.values())
     n_dense = sum(len(v) for v in dense.values())
-    data["seconds_corner"] = np.float64(t_corner)
     data["seconds_dense"] = np.float64(t_dense)
-    out = os.path.join(HERE, name + (f"_f{frame:03d}" if frame is not None else "")
-                       + (f"_seed{seed}" if seed else "") + ".npz")
     np.savez_compressed(out, **data)
     print(f"REF {os.path.basename(out)}: corner layout {n_corner} corners at {samples_corner} spp {t_corner:.1f} s, "
           f"dense layout {n_dense} points at {samples} spp {t_dense:.1f} s, {os.path.getsize(out)/1024:.0f} KiB",
@@ -196,12 +203,12 @@ def run_scene(name, frame, samples, seed=0):
 
 
 def main():
-    samples, only, seed = args()
+    samples, only, seed, samples_corner, corners_only = args()
     for name, frames in SCENES:
         if only and only != name:
             continue
         for f in frames:
-            run_scene(name, f, samples, seed)
+            run_scene(name, f, samples, seed, samples_corner, corners_only)
 
 
 if __name__ == "__main__":
