@@ -6,7 +6,8 @@
     blender -b --factory-startup --python bench/accuracy_vs_time.py -- --plot-only   (PNG from the CSV)
 
 --quick: cornell_box, draft, Cycles at 16/64 spp (corners) and 16 (dense), into results/*_quick.* (~30 s).
-The full run took 25 min on 2 shared cores (high presets 165-445 s each; reference skipped).
+The full run took 28 min on 2 cores (2026-12-01: high 42-128 s per scene; reference 428 s on the
+Cornell box, stopped at 600 s on the subsurf room, skipped on the animated room).
 
 For each sample scene (animated_room at frame 1):
   ours    each preset through the add-on's pipeline (addon/bake.py BakeJob with the preset, then
@@ -20,7 +21,7 @@ For each sample scene (animated_room at frame 1):
   cycles_dense  the same bake on the dense reference's layout (per-face 0.25 m grids, the evaluated
           mesh of subdivided objects: thousands of points, about our patch density) at 16..1024 spp.
 Errors: reference.relative_rms. corner_rms: over the non-emitting face corners against the cached
-16,384-spp corner bake, as tests/addon/test_cycles_agreement.py computes it. dense_rms: ours, the
+262,144-spp corner bake, as tests/addon/test_cycles_agreement.py computes it. dense_rms: ours, the
 engine's refined patch corners against the 4,096-spp dense reference interpolated there, as
 compare_engine.py does; cycles_dense, its grid points against the same reference's.
 Runs under 10 s are repeated (3 in all) and the median time kept.
@@ -213,7 +214,7 @@ def read_attr(ob):
 
 
 def run_cycles(name, frame, spp):
-    """Cycles at the cage corners, against the 16,384-spp corner reference."""
+    """Cycles at the cage corners, against the 262,144-spp corner reference."""
     ref = reference.load(name, frame)
     scene = open_scene(name, frame)
     seconds = cycles_bake(scene, spp)
@@ -453,7 +454,7 @@ def plot(rows, path):
         c.dot(x, yy + 7, 6, color, marker)
         c.text(x + 24, yy, text, (0, 0, 0), 2)
     y += 30 * math.ceil(len(styles) / per_row) + 6
-    c.text(left, y, "Error: against Cycles at 16,384 spp (cage corners) and 4,096 spp (dense grid). "
+    c.text(left, y, "Error: against Cycles at 262,144 spp (cage corners) and 4,096 spp (dense grid). "
            "Time: export + solve + write-back (ours), the bake operator (Cycles).", (90, 90, 90), 1)
     c.text(left, y + 14, "Labels: preset (ours), samples per pixel (Cycles). 2 cores, shared: see the CSV's load column.",
            (90, 90, 90), 1)
