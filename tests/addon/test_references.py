@@ -51,7 +51,8 @@ def test_reference_matches_export(export, open_sample, path):
             assert reference.relative_rms(gc, corner) < 0.1
         else:
             assert ref[m.name + ":eval_pos"].shape == ref[m.name + ":eval_value"].shape
-    # emitters bake to exactly their emission
+    # emitters bake to their emission; at 262,144 spp Cycles' float sums round a constant sample
+    # (42.5 lost 0.29% at the Cornell lamp), hence 0.5% rather than exactly
     for m in s.meshes:
         em = np.array([s.materials[i].emission for i in m.face_materials])
         lit = em.max(1) > 0
@@ -59,4 +60,4 @@ def test_reference_matches_export(export, open_sample, path):
             corner = ref[m.name + ":corner"]
             per_corner = np.repeat(em, m.face_sizes, axis=0)
             sel = np.repeat(lit, m.face_sizes)
-            np.testing.assert_allclose(corner[sel], per_corner[sel], rtol=1e-5)
+            np.testing.assert_allclose(corner[sel], per_corner[sel], rtol=5e-3)
