@@ -227,8 +227,9 @@ bool same_light(const Shot& a, const Shot& b) {
     for (int side = 0; side < 2; ++side)
       if (a.elements[i].radiance[side] != b.elements[i].radiance[side]) return false;
   for (size_t i = 0; i < a.cells.size(); ++i)
-    for (int side = 0; side < 2; ++side)
-      if (a.cells[i].radiance[side] != b.cells[i].radiance[side]) return false;
+    for (int side = 0; side < 2; ++side)  // what a cell's centre sees decides how near receivers see it
+      if (a.cells[i].radiance[side] != b.cells[i].radiance[side] || a.cells[i].seen[side] != b.cells[i].seen[side])
+        return false;
   return true;
 }
 
@@ -284,8 +285,9 @@ struct Piece {
 // Centroid in (u, v) of the part of the piece on side `part` (0: h > 0) of the receiver's plane,
 // h being the corners' heights above it (linear across a planar piece).
 void part_centroid(const Piece& p, const double h[4], int part, double& u, double& v) {
-  const double su[4] = {p.u0, p.u0 + p.size, p.u0 + p.size, p.u0};
-  const double sv[4] = {p.v0, p.v0, p.v0 + p.size, p.v0 + p.size};
+  // Relative to the square's first corner: slivers keep their precision.
+  const double su[4] = {0.0, p.size, p.size, 0.0};
+  const double sv[4] = {0.0, 0.0, p.size, p.size};
   double pu[8], pv[8];
   int count = 0;
   for (int i = 0; i < 4; ++i) {
@@ -305,11 +307,9 @@ void part_centroid(const Piece& p, const double h[4], int part, double& u, doubl
     cu += (pu[i] + pu[j]) * cross;
     cv += (pv[i] + pv[j]) * cross;
   }
-  if (std::fabs(area) > 1e-12 * p.size * p.size) {
-    u = cu / (3 * area), v = cv / (3 * area);
-  } else {
-    u = p.u0 + 0.5 * p.size, v = p.v0 + 0.5 * p.size;
-  }
+  bool sliver = !(std::fabs(area) > 1e-12 * p.size * p.size);
+  u = p.u0 + (sliver ? 0.5 * p.size : std::clamp(cu / (3 * area), 0.0, p.size));
+  v = p.v0 + (sliver ? 0.5 * p.size : std::clamp(cv / (3 * area), 0.0, p.size));
 }
 
 // An exactly integrated piece of a cell. Each part of it on one side of the receiver's plane is
@@ -356,7 +356,8 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
 // (a box on the floor) it divides the patch: the cell's centre sees only patch corners on its own
 // side of the receiver's plane, and the part of the cell on the other side is lit by the corners
 // there. Where the centre sees corners on both sides, something else divides the patch (a wall
-// between two rooms) and the centre's view holds for the whole cell.
+// between two rooms) and the centre's view holds for the whole cell. (Not caught: a wall parallel
+// to the receiver's surface, less than a patch from it, over a patch that also runs under both.)
 //
 // A point takes nothing from the patches it lies on. They are flat, or curved so that a point on
 // them sees them edge-on; but the point sits a little off their corners' planes, which Lambert's
@@ -378,8 +379,10 @@ void exact_cell(int receiver, const dvec3& x, const dvec3& n, const ShotCell& sc
     uint8_t front = 0;
     for (int c = 0; c < 4; ++c) front |= (glm::dot(n, patch.corner[c] - x) > 0) << c;
     uint8_t back = 15 & ~front;
-    bool one_side = seen && ((seen & ~front) == 0 || (seen & ~back) == 0);
-    if (above && below && front && back && one_side) light.corners[0] = front, light.corners[1] = back;
+    if (above && below && front && back && seen) {
+      if ((seen & ~front) == 0) light.corners[1] = back;
+      if ((seen & ~back) == 0) light.corners[0] = front;
+    }
   }
   bool lit = false;
   for (int c = 0; c < 4; ++c)
