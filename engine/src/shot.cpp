@@ -113,6 +113,10 @@ struct ShotBuilder {
         light.point[c] = patch.point[c];
         for (int s = 0; s < 2; ++s) light.radiance[c][s] = scale * unshot[p][c * 2 + s];
       }
+      // A twisted patch bulges off its triangles by a quarter of its twist, at its centre: a ray
+      // ending on the patch short of that could end behind the triangles and count as blocked.
+      dvec3 twist = light.corner[0] - light.corner[1] + light.corner[2] - light.corner[3];
+      light.lift = 0.25 * std::fabs(glm::dot(twist, patch.normal));
       std::vector<Cell> cells(k * k);
       bilinear_cells(light.corner, k, cells.data());
       const std::vector<uint8_t>* seen[2] = {nullptr, nullptr};  // per cell, a bit per corner it sees
@@ -249,7 +253,7 @@ namespace {
 // Disc approximation of a distant element (exact on the axis of a disc): the bare point kernel
 // A/(pi r^2) overshoots by (R/r)^2, some 10% at three radii, and that energy adds up over a solve.
 void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centre, const dvec3& target,
-                const dvec3& normal, double area, const dvec3 radiance[2], OcclusionBatch& batch) {
+                const dvec3& normal, double area, const dvec3 radiance[2], double lift, OcclusionBatch& batch) {
   dvec3 d = centre - x;
   double r2 = glm::dot(d, d);
   double cos_s = glm::dot(normal, d);  // negative: receiver in front of the shooter
@@ -258,7 +262,8 @@ void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centr
   if (is_zero(rad) || cos_r == 0) return;
   dvec3 irradiance = rad * (std::fabs(cos_s * cos_r) * area / (r2 * (kPi * r2 + area)));  // one division
   bool front = cos_r > 0;
-  batch.to_point(receiver, x, n, target, normal, front ? irradiance : dvec3(0.0), front ? dvec3(0.0) : irradiance);
+  batch.to_point(receiver, x, n, target, normal, front ? irradiance : dvec3(0.0), front ? dvec3(0.0) : irradiance,
+                 lift);
 }
 
 // Within this many radii of a receiver a cell is split 2 x 2 for visibility, down to kSplitDepth
@@ -337,7 +342,8 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
   auto send = [&](int part, double u, double v, const dvec3& target) {
     dvec3 e = radiance_at(light.patch, light.side, light.corners[part], u, v) * (part == 0 ? f.front : f.back);
     if (!is_zero(e))
-      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0 ? e : dvec3(0.0), part == 0 ? dvec3(0.0) : e);
+      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0 ? e : dvec3(0.0), part == 0 ? dvec3(0.0) : e,
+                     light.patch.lift);
   };
   if (f.front > 0 && f.back > 0) {
     double h[4];
@@ -412,7 +418,8 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
           if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
           dvec3 d = cell.centre - x;
           if (glm::dot(d, d) > kExactCellRadii * kExactCellRadii * cell.radius * cell.radius) {
-            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, cell.area, sc.radiance, batch);
+            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, cell.area, sc.radiance,
+                       shot.patches[sc.patch].lift, batch);
             continue;
           }
           exact_cell(receiver, x, n, sc, shot.patches[sc.patch], glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1,
@@ -423,7 +430,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
       if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
       dvec3 d = e.centroid - x;
       if (e.flat && glm::dot(d, d) > shot.near_factor * shot.near_factor * e.radius * e.radius) {
-        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, e.projected_area, e.radiance, batch);
+        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, e.projected_area, e.radiance, 0.0, batch);
         continue;
       }
       stack[top++] = e.right;

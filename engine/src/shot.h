@@ -28,6 +28,7 @@ struct ShotPatch {
   dvec3 corner[4];
   dvec3 radiance[4][2];              // [corner][side], side 0 = front
   int point[4] = {-1, -1, -1, -1};   // receiving points at the corners (none for lamps)
+  double lift = 0.0;  // how far its bilinear surface may lie off the two triangles Embree traces
 };
 
 struct ShotCell {

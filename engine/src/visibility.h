@@ -94,13 +94,14 @@ class OcclusionBatch {
   ~OcclusionBatch() { flush(); }
 
   // Segment from receiver point x (normal n) to target y; y is pulled off its own surface along
-  // target_normal, towards x. Inline: it runs once per ray, between the form factors.
+  // target_normal, towards x, by epsilon plus `lift` (how far that surface may lie off the traced
+  // one). Inline: it runs once per ray, between the form factors.
   void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal,
-                const dvec3& front, const dvec3& back) {
+                const dvec3& front, const dvec3& back, double lift = 0.0) {
     double eps = vis_.epsilon();
     dvec3 d = y - x;
     dvec3 origin = x + (glm::dot(n, d) >= 0 ? eps : -eps) * n;
-    dvec3 end = y + (glm::dot(target_normal, d) <= 0 ? eps : -eps) * target_normal;
+    dvec3 end = y + (glm::dot(target_normal, d) <= 0 ? eps + lift : -eps - lift) * target_normal;
     dvec3 dir = end - origin;
     if (glm::dot(dir, dir) <= 4 * eps * eps) {  // touching: nothing fits (nor moves) in between
       if (changed_object_ >= 0) return;
