@@ -90,6 +90,39 @@ SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
   return f;
 }
 
+namespace {
+
+// Centroid and second moment (per unit area, flattened into the cell's plane) of the quad cell's
+// area, summed over its two triangles relative to its centre.
+void area_moments(Cell& c) {
+  dvec3 q[4];
+  for (int i = 0; i < 4; ++i) q[i] = c.corners[i] - c.centre;
+  double area = 0.0;
+  dvec3 first(0.0);
+  glm::dmat3 second(0.0);
+  for (int t = 0; t < 2; ++t) {
+    const dvec3 &a = q[0], &b = q[t + 1], &e = q[t + 2];
+    double at = 0.5 * glm::dot(glm::cross(b - a, e - a), c.normal);
+    dvec3 sum = a + b + e;
+    area += at;
+    first += at * sum / 3.0;
+    second += (at / 12.0) * (glm::outerProduct(a, a) + glm::outerProduct(b, b) + glm::outerProduct(e, e) +
+                             glm::outerProduct(sum, sum));
+  }
+  dvec3 offset = area > 0 ? first / area : dvec3(0.0);
+  c.centroid = c.centre + offset;
+  c.reach = 0.0;
+  for (const dvec3& p : q) c.reach = std::fmax(c.reach, glm::length(p - offset));
+  if (!(area > 0)) {
+    c.spread = glm::dmat3(0.0);
+    return;
+  }
+  glm::dmat3 flat = glm::dmat3(1.0) - glm::outerProduct(c.normal, c.normal);
+  c.spread = flat * (second / area - glm::outerProduct(offset, offset)) * flat;
+}
+
+}  // namespace
+
 void bilinear_cells(const dvec3 p[4], int k, Cell* out) {
   double h = 1.0 / k;
   for (int j = 0; j < k; ++j) {
@@ -107,6 +140,7 @@ void bilinear_cells(const dvec3 p[4], int k, Cell* out) {
       c.normal = c.area > 0 ? va / c.area : dvec3(0.0);
       c.radius = 0.0;
       for (const dvec3& q : c.corners) c.radius = std::fmax(c.radius, glm::length(q - c.centre));
+      area_moments(c);
     }
   }
 }

@@ -42,7 +42,6 @@ void orthonormal_basis(const dvec3& n, dvec3& t, dvec3& b) {
   b = glm::cross(n, t);
 }
 
-dvec3 split(bool front, const dvec3& v, bool want_front) { return front == want_front ? v : dvec3(0.0); }
 
 }  // namespace
 
@@ -70,7 +69,7 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
     dvec3 h = lamp.color * (std::fabs(cos_r) / kPi);
     bool front = cos_r > 0;
     if (lamp.angle <= 0) {
-      batch.to_infinity(receiver, x, n, to_sun, split(front, h, true), split(front, h, false));
+      batch.to_infinity(receiver, x, n, to_sun, front, h);
       return;
     }
     dvec3 t, b;
@@ -78,7 +77,7 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
     double spread = std::tan(0.5 * lamp.angle);
     disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
       dvec3 dir = to_sun + spread * (u * t + v * b);
-      batch.to_infinity(receiver, x, n, dir, split(front, w * h, true), split(front, w * h, false));
+      batch.to_infinity(receiver, x, n, dir, front, w * h);
     });
     return;
   }
@@ -96,14 +95,14 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
   bool front = cos_r > 0;
   const dvec3 no_normal(0.0);
   if (lamp.radius <= 0) {
-    batch.to_point(receiver, x, n, lamp.position, no_normal, split(front, h, true), split(front, h, false));
+    batch.to_point(receiver, x, n, lamp.position, no_normal, front, h);
     return;
   }
   dvec3 t, b;
   orthonormal_basis(to_lamp, t, b);
   disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
     dvec3 y = lamp.position + lamp.radius * (u * t + v * b);
-    batch.to_point(receiver, x, n, y, no_normal, split(front, w * h, true), split(front, w * h, false));
+    batch.to_point(receiver, x, n, y, no_normal, front, w * h);
   });
 }
 
@@ -116,9 +115,7 @@ void gather_world(const dvec3& radiance, int samples, int receiver, const Receiv
     dvec3 n = side == 0 ? point.normal : -point.normal;
     disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
       dvec3 dir = u * t + v * b + std::sqrt(std::max(0.0, 1.0 - u * u - v * v)) * n;
-      dvec3 h = w * radiance;
-      batch.to_infinity(receiver, point.position, point.normal, dir, side == 0 ? h : dvec3(0.0),
-                        side == 0 ? dvec3(0.0) : h);
+      batch.to_infinity(receiver, point.position, point.normal, dir, side == 0, w * radiance);
     });
   }
 }

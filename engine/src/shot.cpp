@@ -251,20 +251,24 @@ Shot scaled(Shot shot, double scale) {
 
 namespace {
 
-// Disc approximation of a distant element (exact on the axis of a disc): the bare point kernel
-// A/(pi r^2) overshoots by (R/r)^2, some 10% at three radii, and that energy adds up over a solve.
-void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centre, const dvec3& target,
-                const dvec3& normal, double area, const dvec3 radiance[2], double lift, OcclusionBatch& batch) {
+// Disc approximation of a distant cluster's form factor (exact on the axis of a disc): the bare
+// point kernel A/(pi r^2) overshoots by (R/r)^2, some 10% at three radii, and that energy adds up
+// over a solve.
+double disc_form_factor(const dvec3& x, const dvec3& n, const dvec3& centre, const dvec3& normal, double area) {
   dvec3 d = centre - x;
   double r2 = glm::dot(d, d);
-  double cos_s = glm::dot(normal, d);  // negative: receiver in front of the shooter
-  const dvec3& rad = radiance[cos_s <= 0 ? 0 : 1];
+  return std::fabs(glm::dot(normal, d) * glm::dot(n, d)) * area / (r2 * (kPi * r2 + area));  // one division
+}
+
+// One ray to `target` carries `factor` times the radiance of the side of an element (at `centre`,
+// facing `normal`) that faces x.
+void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centre, const dvec3& target,
+                const dvec3& normal, double factor, const dvec3 radiance[2], double lift, OcclusionBatch& batch) {
+  dvec3 d = centre - x;
+  const dvec3& rad = radiance[glm::dot(normal, d) <= 0 ? 0 : 1];  // <= 0: x in front of the element
   double cos_r = glm::dot(n, d);
-  if (is_zero(rad) || cos_r == 0) return;
-  dvec3 irradiance = rad * (std::fabs(cos_s * cos_r) * area / (r2 * (kPi * r2 + area)));  // one division
-  bool front = cos_r > 0;
-  batch.to_point(receiver, x, n, target, normal, front ? irradiance : dvec3(0.0), front ? dvec3(0.0) : irradiance,
-                 lift);
+  if (is_zero(rad) || cos_r == 0 || !(factor > 0)) return;
+  batch.to_point(receiver, x, n, target, normal, cos_r > 0, rad * factor, lift);
 }
 
 // Within this many radii of a receiver a cell is split 2 x 2 for visibility, down to kSplitDepth
@@ -343,8 +347,7 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
   auto send = [&](int part, double u, double v, const dvec3& target) {
     dvec3 e = radiance_at(light.patch, light.side, light.corners[part], u, v) * (part == 0 ? f.front : f.back);
     if (!is_zero(e))
-      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0 ? e : dvec3(0.0), part == 0 ? dvec3(0.0) : e,
-                     light.patch.lift);
+      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0, e, light.patch.lift);
   };
   if (f.front > 0 && f.back > 0) {
     double h[4];
@@ -365,14 +368,8 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
 // there. Where the centre sees corners on both sides, something else divides the patch (a wall
 // between two rooms) and the centre's view holds for the whole cell. (Not caught: a wall parallel
 // to the receiver's surface, less than a patch from it, over a patch that also runs under both.)
-//
-// A point takes nothing from the patches it lies on. They are flat, or curved so that a point on
-// them sees them edge-on; but the point sits a little off their corners' planes, which Lambert's
-// formula would take for a view of a whole quarter of the sky, lit by the point's own light.
 void exact_cell(int receiver, const dvec3& x, const dvec3& n, const ShotCell& sc, const ShotPatch& patch, int side,
                 OcclusionBatch& batch) {
-  for (int point : patch.point)
-    if (point == receiver) return;
   uint8_t seen = sc.seen[side];
   NearLight light{patch, side, {seen, seen}};
   if (seen != 15) {
@@ -397,9 +394,13 @@ void exact_cell(int receiver, const dvec3& x, const dvec3& n, const ShotCell& sc
   if (lit) exact_piece(receiver, x, n, {sc.cell, sc.u0, sc.v0, sc.size}, light, 0, batch);
 }
 
-// Beyond this many radii a cell's disc approximation differs from the exact factor by O((r/d)^4),
-// about 1e-6: a furnace at rho = 0.99 stays within its 0.1%. (At 8 radii it was 0.9% off.)
-constexpr double kExactCellRadii = 32.0;
+// A point takes nothing from the patches it lies on. They are flat, or curved so that a point on
+// them sees them edge-on; but the point sits a little off their corners' planes, which Lambert's
+// formula would take for a view of a whole quarter of the sky, lit by the point's own light.
+bool lies_on(const ShotPatch& patch, int receiver) {
+  return patch.point[0] == receiver || patch.point[1] == receiver || patch.point[2] == receiver ||
+         patch.point[3] == receiver;
+}
 
 }  // namespace
 
@@ -416,22 +417,21 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
         for (int c = e.cell_begin; c < e.cell_end; ++c) {
           const ShotCell& sc = shot.cells[c];
           const Cell& cell = sc.cell;
-          if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
-          dvec3 d = cell.centre - x;
-          if (glm::dot(d, d) > kExactCellRadii * kExactCellRadii * cell.radius * cell.radius) {
-            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, cell.area, sc.radiance,
-                       shot.patches[sc.patch].lift, batch);
+          const ShotPatch& patch = shot.patches[sc.patch];
+          if ((zone && !zone->may_cross(x, {cell.centre, cell.radius})) || lies_on(patch, receiver)) continue;
+          if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
+            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, *factor, sc.radiance, patch.lift, batch);
             continue;
           }
-          exact_cell(receiver, x, n, sc, shot.patches[sc.patch], glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1,
-                     batch);
+          exact_cell(receiver, x, n, sc, patch, glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1, batch);
         }
         continue;
       }
       if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
       dvec3 d = e.centroid - x;
       if (e.flat && glm::dot(d, d) > shot.near_factor * shot.near_factor * e.radius * e.radius) {
-        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, e.projected_area, e.radiance, 0.0, batch);
+        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal,
+                   disc_form_factor(x, n, e.centroid, e.normal, e.projected_area), e.radiance, 0.0, batch);
         continue;
       }
       stack[top++] = e.right;

@@ -183,10 +183,10 @@ bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, cons
   return ray.tfar >= 0;
 }
 
-void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir,
-                                 const dvec3& front, const dvec3& back) {
+void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
+                                 const dvec3& irradiance) {
   double eps = vis_.epsilon();
-  push(receiver, x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, front, back);
+  push(&sum(receiver, front), x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, irradiance);
 }
 
 unsigned OcclusionBatch::keep_changed() {
@@ -201,9 +201,8 @@ unsigned OcclusionBatch::keep_changed() {
     if (blocked_before == blocked_now) continue;
     double sign = blocked_before ? 1.0 : -1.0;
     rays_[kept] = rays_[i];
-    receiver_[kept] = receiver_[i];
-    carried_[kept][0] = sign * carried_[i][0];
-    carried_[kept][1] = sign * carried_[i][1];
+    into_[kept] = into_[i];
+    carried_[kept] = sign * carried_[i];
     ++kept;
   }
   traced_ += 2 * count_;
@@ -227,10 +226,7 @@ void OcclusionBatch::flush() {
     vis_.occluded(rays_, count_);
   }
   for (unsigned i = 0; i < count_; ++i)
-    if (rays_[i].tfar >= 0) {
-      front_[receiver_[i]] += carried_[i][0];
-      back_[receiver_[i]] += carried_[i][1];
-    }
+    if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
   traced_ += count_;
   count_ = 0;
 }

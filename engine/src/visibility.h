@@ -81,7 +81,7 @@ class Visibility {
   std::unique_ptr<Recording> recording_;
 };
 
-// Collects occlusion rays with the irradiance each carries to a receiving point, traces them in
+// Collects occlusion rays with the irradiance each carries to one side of a receiving point, traces them in
 // streams and adds what arrives unoccluded to the receivers' accumulators (front and back side).
 //
 // With `changed_object`, a batch carries only what that object's last move changed: a ray counts
@@ -93,27 +93,26 @@ class OcclusionBatch {
       : vis_(vis), front_(front), back_(back), changed_object_(changed_object) {}
   ~OcclusionBatch() { flush(); }
 
-  // Segment from receiver point x (normal n) to target y; y is pulled off its own surface along
-  // target_normal, towards x, by epsilon plus `lift` (how far that surface may lie off the traced
-  // one). Inline: it runs once per ray, between the form factors.
+  // Segment from receiver point x (normal n) to target y, carrying `irradiance` to the receiver's
+  // front or back side; y is pulled off its own surface along target_normal, towards x, by epsilon
+  // plus `lift` (how far that surface may lie off the traced one). Inline: it runs once per ray,
+  // between the form factors.
   void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal,
-                const dvec3& front, const dvec3& back, double lift = 0.0) {
+                bool front, const dvec3& irradiance, double lift = 0.0) {
     double eps = vis_.epsilon();
     dvec3 d = y - x;
     dvec3 origin = x + (glm::dot(n, d) >= 0 ? eps : -eps) * n;
     dvec3 end = y + (glm::dot(target_normal, d) <= 0 ? eps + lift : -eps - lift) * target_normal;
     dvec3 dir = end - origin;
     if (glm::dot(dir, dir) <= 4 * eps * eps) {  // touching: nothing fits (nor moves) in between
-      if (changed_object_ >= 0) return;
-      front_[receiver] += front;
-      back_[receiver] += back;
+      if (changed_object_ < 0) sum(receiver, front) += irradiance;
       return;
     }
-    push(receiver, origin, dir, kSegment, front, back);
+    push(&sum(receiver, front), origin, dir, kSegment, irradiance);
   }
   // Ray from x to infinity along dir (sun, sky).
-  void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, const dvec3& front,
-                   const dvec3& back);
+  void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
+                   const dvec3& irradiance);
   void flush();
   long long rays_traced() const { return traced_; }
   long long rays_pushed() const { return pushed_; }
@@ -122,13 +121,12 @@ class OcclusionBatch {
   // A segment is pushed with tfar = kSegment; flush() shortens it to stop epsilon before its end.
   static constexpr float kSegment = 1.0f;
 
-  void push(int receiver, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& front,
-            const dvec3& back) {
+  dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver]; }
+  void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
     ++pushed_;
     rays_[count_] = make_ray(origin, dir, tfar);
-    receiver_[count_] = receiver;
-    carried_[count_][0] = front;
-    carried_[count_][1] = back;
+    into_[count_] = into;
+    carried_[count_] = irradiance;
     if (++count_ == kCapacity) flush();
   }
   unsigned keep_changed();  // leaves the rays the changed object's move made a difference to
@@ -139,8 +137,8 @@ class OcclusionBatch {
   dvec3* back_;
   int changed_object_;
   RTCRay rays_[kCapacity];
-  int receiver_[kCapacity];
-  dvec3 carried_[kCapacity][2];
+  dvec3* into_[kCapacity];  // the accumulator (receiver and side) each ray adds to
+  dvec3 carried_[kCapacity];
   unsigned count_ = 0;
   long long traced_ = 0;
   long long pushed_ = 0;

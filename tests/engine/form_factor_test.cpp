@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <functional>
+#include <random>
 #include <vector>
 
 using namespace radiosity;
@@ -208,4 +209,50 @@ TEST(PointToSurface, CoplanarCellGivesNothing) {
   SideFactors f = cell_form_factor(cell, dvec3(0.1) + 0.37 * u + 0.61 * v, glm::normalize(glm::cross(u, v)));
   EXPECT_EQ(f.front, 0.0);
   EXPECT_EQ(f.back, 0.0);
+}
+
+// Largest error of the distant-cell expansion against Lambert's formula over receivers at `radii`
+// cell radii in many directions, facing many ways, in units of the cell's A / (pi r^2).
+double distant_cell_error(const std::vector<dvec3>& quad, double radii) {
+  Cell cell;
+  bilinear_cells(quad.data(), 1, &cell);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  auto direction = [&] {
+    dvec3 d;
+    do d = dvec3(uniform(random), uniform(random), uniform(random));
+    while (glm::dot(d, d) > 1 || glm::dot(d, d) < 1e-3);
+    return glm::normalize(d);
+  };
+  double worst = 0;
+  int used = 0;
+  for (int i = 0; i < 4000; ++i) {
+    dvec3 x = cell.centroid + (radii + 1e-6) * cell.radius * direction();
+    dvec3 n = direction();
+    std::optional<double> f = distant_cell_form_factor(cell, x, n);
+    if (!f) continue;
+    ++used;
+    SideFactors exact = cell_form_factor(cell, x, n);
+    double scale = cell.area / (kPi * glm::dot(x - cell.centroid, x - cell.centroid));
+    worst = std::fmax(worst, std::fabs(*f - exact.front - exact.back) / scale);
+  }
+  EXPECT_GT(used, 3000);  // the plane cuts only cells seen nearly edge-on
+  return worst;
+}
+
+TEST(PointToSurface, DistantCellToFourthOrder) {
+  const std::vector<std::vector<dvec3>> symmetric = {
+      rect(dvec3(0), dvec3(1, 0, 0), dvec3(0, 1, 0)),               // square
+      rect(dvec3(0.3, 0, 0), dvec3(0, 3, 0), dvec3(0, 0.2, 1)),     // long rectangle, tilted
+      {dvec3(0), dvec3(1, 0, 0), dvec3(1.6, 0.8, 0), dvec3(0.6, 0.8, 0)},  // parallelogram
+  };
+  for (const auto& quad : symmetric) {
+    double at8 = distant_cell_error(quad, 8), at16 = distant_cell_error(quad, 16);
+    EXPECT_LT(at8, 2e-4);       // measured 0.5-1.1e-4
+    EXPECT_LT(at16, at8 / 12);  // fourth order: 16x smaller
+  }
+  // A trapezoid has a third moment about its centroid: third order, still small at 8 radii.
+  std::vector<dvec3> trapezoid = {dvec3(0), dvec3(1, 0, 0), dvec3(0.8, 0.7, 0), dvec3(0.2, 0.7, 0)};
+  EXPECT_LT(distant_cell_error(trapezoid, 8), 3e-4);  // measured 1.7e-4
+  EXPECT_LT(distant_cell_error(trapezoid, 16), distant_cell_error(trapezoid, 8) / 6);
 }

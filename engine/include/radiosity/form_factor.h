@@ -6,6 +6,8 @@
 
 #include <glm/glm.hpp>
 
+#include <optional>
+
 namespace radiosity {
 
 using glm::dvec3;
@@ -27,11 +29,43 @@ struct Cell {
   dvec3 normal;  // unit, front side of the shooter
   double area;
   double radius; // largest centre-to-corner distance
+  dvec3 centroid;     // of its area
+  double reach;       // largest centroid-to-corner distance
+  glm::dmat3 spread;  // second moment of its area about the centroid, per unit area
 };
 
 // Form factor from (x, n) to the cell, by Lambert's formula: a point sample would blow up as 1/r^2
 // near the cell, and costs little less than the exact value next to a visibility ray.
 SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n);
+
+// Form factor from (x, n) to a distant cell that the receiver's plane does not come near, by the
+// point kernel expanded to second order about the cell's centroid: relative error O((radius /
+// distance)^4) (third order for cells without central symmetry), for a fraction of Lambert's cost.
+// Nothing when the expansion does not hold there. Inline: it runs for most cells a receiver visits.
+inline std::optional<double> distant_cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
+  // Beyond this many radii the error is below 2e-4 of A / (pi r^2), and over a whole view it
+  // partly cancels: a furnace at rho = 0.99 stays within its 0.1%.
+  constexpr double kDistantRadii = 8.0;
+  constexpr double kPi = 3.14159265358979323846;
+  dvec3 d = cell.centroid - x;
+  double r2 = glm::dot(d, d);
+  if (r2 < kDistantRadii * kDistantRadii * cell.radius * cell.radius) return std::nullopt;
+  double g = glm::dot(cell.normal, d);
+  if (!(std::fabs(g) > 1e-9 * cell.radius)) return 0.0;  // x in the cell's plane sees it edge-on
+  // The corners' heights over the receiver's plane differ from the centroid's by at most the
+  // reach times the sine between the planes: beyond that the plane cannot cut the cell.
+  double f = glm::dot(n, d);
+  double cosine = glm::dot(n, cell.normal);
+  if (!(f * f > cell.reach * cell.reach * (1 - cosine * cosine))) return std::nullopt;
+  // The kernel f g / (pi r^4) (f, g: heights of the point over the planes) integrated to second
+  // order, A (K + tr(H M) / 2) with H its Hessian; M lies in the cell's plane, where g is constant.
+  // One division serves all the terms.
+  dvec3 md = cell.spread * d;
+  double trace = cell.spread[0][0] + cell.spread[1][1] + cell.spread[2][2];
+  double inv = 1.0 / (f * r2 * r2);
+  double correction = 1 - 2 * trace * f * r2 * inv + 12 * glm::dot(d, md) * f * inv - 4 * glm::dot(n, md) * r2 * inv;
+  return std::fabs(f * f * g * inv) * cell.area * correction / kPi;
+}
 
 // Splits the bilinear patch p0 p1 p2 p3 (counter-clockwise) into k x k cells at their centres:
 // the paper's m x n micro-elements, evaluated by the midpoint rule.
