@@ -85,7 +85,7 @@ def cornell_box(patch_size=0.0, emission=15.0):
 
 # The changeable state of `changing_room`, as set_* calls would change it.
 ROOM_STATE = dict(cube=(0.3, -0.4, 0.5), cube_scale=(1.0, 1.0, 1.0), cube_rho=(0.5, 0.6, 0.7), lamp_emission=15.0,
-                  point=((0.5, -0.5, 1.5), (3.0, 3.0, 3.0)), world=(0.05, 0.05, 0.08))
+                  point=((0.5, -0.5, 1.5), (3.0, 3.0, 3.0)), world=(0.05, 0.05, 0.08), cube_visible=True)
 
 
 def cube_positions(scale=(1.0, 1.0, 1.0), size=0.3):
@@ -98,15 +98,19 @@ def cube_positions(scale=(1.0, 1.0, 1.0), size=0.3):
 
 def changing_room(state=ROOM_STATE, patch_size=0.0):
     """The Cornell box with a small dynamic cube, a point lamp and a dim world, in `state`.
-    Returns (scene, object ids, cube id); the cube's material is the last one, the ceiling lamp's 3."""
+    Returns (scene, object ids, cube id); the cube's material is the last one, the ceiling lamp's 3.
+    state["cube_visible"] None: no cube at all (ids without it, cube id None)."""
     scene, ids = cornell_box(patch_size, state["lamp_emission"])
     m = scene.add_material(state["cube_rho"])
-    positions, cube = cube_positions(state["cube_scale"])
-    cube.positions = list(positions)
-    cube.materials = [m] * len(cube.faces)
-    transform = np.eye(4)
-    transform[:3, 3] = state["cube"]
-    cube_id = cube.add_to(scene, refine="bilinear", patch_size=patch_size, transform=transform, dynamic=True)
+    cube_id = None
+    if state["cube_visible"] is not None:
+        positions, cube = cube_positions(state["cube_scale"])
+        cube.positions = list(positions)
+        cube.materials = [m] * len(cube.faces)
+        transform = np.eye(4)
+        transform[:3, 3] = state["cube"]
+        cube_id = cube.add_to(scene, refine="bilinear", patch_size=patch_size, transform=transform, dynamic=True,
+                              visible=state["cube_visible"])
     scene.add_point_light(*state["point"], 0.05)
     scene.set_world(state["world"])
-    return scene, ids + [cube_id], cube_id
+    return scene, ids + ([cube_id] if cube_id is not None else []), cube_id

@@ -172,7 +172,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
            [](SceneDesc& s, const Array<double>& positions, const Array<int>& face_sizes,
               const Array<int>& face_vertices, const Array<int>& face_materials,
               std::optional<Array<double>> transform, const std::string& refine, int level,
-              double patch_size, bool dynamic, const std::string& name) {
+              double patch_size, bool dynamic, const std::string& name, bool visible) {
              MeshDesc mesh;
              mesh.name = name;
              mesh.positions = points(positions, "positions");
@@ -184,12 +184,15 @@ PYBIND11_MODULE(radiosity_engine, m) {
              mesh.level = level;
              mesh.patch_size = patch_size;
              mesh.dynamic = dynamic;
+             mesh.visible = visible;
              s.meshes.push_back(std::move(mesh));
              return int(s.meshes.size()) - 1;
            },
            py::arg("positions"), py::arg("face_sizes"), py::arg("face_vertices"), py::arg("face_materials"),
            py::arg("transform") = py::none(), py::arg("refine") = "none", py::arg("level") = 0,
-           py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "")
+           py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "",
+           py::arg("visible") = true,
+           "visible=False: kept (refined) but out of the lighting until Solver.set_visible(id, True)")
       .def("add_point_light",
            [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
              s.lamps.push_back(point_lamp(position, intensity, radius));
@@ -244,6 +247,8 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def("set_positions",
            [](Solver& s, int object, const Array<double>& p) { s.set_positions(object, points(p, "positions")); },
            py::arg("object"), py::arg("positions"), "object-space positions, same vertices and faces as added")
+      .def("set_visible", &Solver::set_visible, py::arg("object"), py::arg("visible"),
+           "The object appears or vanishes at the next update() (incrementally)")
       .def("set_material",
            [](Solver& s, int index, std::array<double, 3> reflectance, std::array<double, 3> emission) {
              s.set_material(index, {vec3(reflectance), vec3(emission)});

@@ -10,6 +10,8 @@
 //    where the object blocked it before and not now (the exit zone), - where the reverse (the enter
 //    zone), and nothing where it blocks both times or neither (the stay zone). Pairs whose rays
 //    cannot pass near the object, old or new (a capsule test, the paper's cone test), cost nothing.
+// An object that vanishes is a move to nowhere: it blocks nothing after, sends and holds nothing;
+// one that appears, a move from nowhere.
 #include "solver_impl.h"
 
 #include <algorithm>
@@ -133,7 +135,8 @@ void Solver::Impl::place(int object, const MeshDesc& m, const RefinedMesh& refin
   scene.meshes[object] = m;
   place_object(mesh, object, m, refined);
   tree.refit(mesh, object);
-  vis->move_object(object, mesh);
+  vis->move_object(object, mesh, m.visible);
+  mark_hidden(object);
 }
 
 void Solver::Impl::forget_shooter(int s) {
@@ -144,6 +147,10 @@ void Solver::Impl::forget_shooter(int s) {
 
 void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMesh& refined) {
   const ObjectPatches& o = mesh.objects[object];
+  if (!scene.meshes[object].visible && !m.visible) {  // hidden before and after: nothing to light
+    place(object, m, refined);
+    return;
+  }
   double margin = 2 * vis->epsilon();
   Sphere before = bounds_of({mesh.vertices.begin() + o.vertex_begin, mesh.vertices.begin() + o.vertex_end}, margin);
   std::vector<dvec3> moved;
@@ -183,7 +190,10 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   for (size_t s = 0; s < shooters.size(); ++s)
     if (own[s] || near[s]) forget_shooter(int(s));
 
-  // Sent again from where it is; and a near shooter whose light the move changed, sent anew.
+  // Sent again from where it is (emission only, if it just appeared: it has reflected nothing yet;
+  // nothing, if it vanished); and a near shooter whose light the move changed, sent anew.
+  if (!m.visible)
+    for (int p = o.patch_begin; p < o.patch_end; ++p) shot[p].fill(dvec3(0.0));
   std::vector<Source> resent = sources_of(1.0, &own);
   std::vector<Source> near_after = sources_of(1.0, &near);
   for (size_t k = 0; k < near_after.size(); ++k)
@@ -206,7 +216,7 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
              kWhole);
   apply_delta();
 
-  // The object's own receiving points: everything, anew.
+  // The object's own receiving points: everything, anew (nothing, if it vanished).
   gather_all(on_object, plain, gather_from(sources_of(1.0, nullptr)), kWhole);
   for (int i = o.point_begin; i < o.point_end; ++i) {
     delta_front[i] -= front[i];
@@ -214,6 +224,8 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
     touched[i] = 1;
   }
   apply_delta();
+  if (!m.visible)  // what it had not sent yet goes with it
+    for (int p = o.patch_begin; p < o.patch_end; ++p) unshot[p].fill(dvec3(0.0));
 }
 
 }  // namespace radiosity

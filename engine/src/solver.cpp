@@ -21,9 +21,11 @@ Solver::Impl::Impl(SceneDesc s, const Settings& st) : scene(std::move(s)), setti
   scene.validate();
   mesh = build_patch_mesh(scene, settings);
   tree = ClusterTree::build(mesh);
-  std::vector<bool> dynamic;
-  for (const MeshDesc& m : scene.meshes) dynamic.push_back(m.dynamic);
-  vis = std::make_unique<Visibility>(mesh, dynamic);
+  std::vector<bool> dynamic, visible;
+  for (const MeshDesc& m : scene.meshes) dynamic.push_back(m.dynamic), visible.push_back(m.visible);
+  vis = std::make_unique<Visibility>(mesh, dynamic, visible);
+  hidden_point.assign(mesh.points.size(), 0);
+  for (size_t o = 0; o < scene.meshes.size(); ++o) mark_hidden(int(o));
 
   shooters = tree.cut(settings.shooter_size_relative * mesh.diagonal);
   patch_shooter.assign(mesh.patches.size(), -1);
@@ -45,6 +47,11 @@ Solver::Impl::Impl(SceneDesc s, const Settings& st) : scene(std::move(s)), setti
   if (mesh.degenerate_patches > 0)
     stats.warnings.push_back(std::to_string(mesh.degenerate_patches) +
                              " degenerate (zero-area) patches were left out");
+}
+
+void Solver::Impl::mark_hidden(int object) {
+  const ObjectPatches& o = mesh.objects[object];
+  std::fill(hidden_point.begin() + o.point_begin, hidden_point.begin() + o.point_end, !scene.meshes[object].visible);
 }
 
 void Solver::Impl::apply_delta() {
@@ -99,7 +106,9 @@ std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector
   }
   std::vector<CornerUnshot> emission(mesh.patches.size());
   for (size_t p = 0; p < mesh.patches.size(); ++p)
-    emission[p].fill(mesh.patches[p].area > 0 ? material(int(p)).emission : dvec3(0.0));
+    emission[p].fill(mesh.patches[p].area > 0 && scene.meshes[mesh.patches[p].object].visible
+                         ? material(int(p)).emission
+                         : dvec3(0.0));
   for (Source& s : patch_sources(emission, settings.samples_direct, scale, only)) out.push_back(std::move(s));
   return out;
 }
@@ -239,6 +248,12 @@ void Solver::set_positions(int object, std::vector<dvec3> positions) {
                                 " vertices; a change of topology needs a new Solver");
   auto [it, added] = s.pending.meshes.try_emplace(object, s.scene.meshes.at(object));
   it->second.positions = std::move(positions);
+}
+
+void Solver::set_visible(int object, bool visible) {
+  Impl& s = *impl_;
+  auto [it, added] = s.pending.meshes.try_emplace(object, s.scene.meshes.at(object));
+  it->second.visible = visible;
 }
 
 void Solver::set_material(int index, const Material& material) {

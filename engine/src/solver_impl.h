@@ -39,6 +39,8 @@ struct Solver::Impl {
   std::vector<CornerUnshot> unshot;    // per patch
   std::vector<CornerUnshot> shot;      // per patch: all it has sent so far
   std::vector<dvec3> delta_front, delta_back;  // a gather in flight, discarded if cancelled
+  std::vector<char> hidden_point;  // per point: its object is hidden, and it gathers nothing
+  void mark_hidden(int object);    // hidden_point from the object's visibility
   bool injected = false;
   double injected_power = 0.0;
   double reference_power = 0.0;  // unshot power right after injection: the residual's scale
@@ -120,7 +122,7 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
     for (int i = 0; i < count; ++i) {
       if (cancelled()) continue;
       const ReceiverPoint& p = mesh.points[i];
-      if (p.normal == dvec3(0.0) || !wanted(i)) continue;
+      if (p.normal == dvec3(0.0) || hidden_point[i] || !wanted(i)) continue;
       gather_one(i, p, batch);
     }
     batch.flush();

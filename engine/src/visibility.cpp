@@ -32,7 +32,8 @@ RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatc
 
 }  // namespace
 
-Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects)
+Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects,
+                       const std::vector<bool>& visible)
     : epsilon_(kRelativeEpsilon * mesh.diagonal) {
   device_ = rtcNewDevice(nullptr);
   if (!device_) throw std::runtime_error("Embree device could not be created");
@@ -43,11 +44,16 @@ Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_o
     const ObjectPatches& obj = mesh.objects[o];
     if (obj.patch_end == obj.patch_begin) continue;
     RTCGeometry quads = make_quads(device_, mesh, obj);
-    if (o < dynamic_objects.size() && dynamic_objects[o])
+    bool shown = o >= visible.size() || visible[o];
+    if ((o < dynamic_objects.size() && dynamic_objects[o]) || !shown)
       make_instance(objects_[o], quads);
     else
       objects_[o].geometry = rtcAttachGeometry(top_, quads);
     rtcReleaseGeometry(quads);
+    if (!shown) {
+      objects_[o].visible[0] = objects_[o].visible[1] = false;
+      rtcDisableGeometry(objects_[o].instance);
+    }
   }
   rtcCommitScene(top_);
 }
@@ -82,7 +88,7 @@ void Visibility::make_instance(Object& o, RTCGeometry quads) {
   rtcReleaseGeometry(o.instance);
 }
 
-void Visibility::move_object(int object, const PatchMesh& mesh) {
+void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
   Object& o = objects_.at(object);
   if (o.geometry == RTC_INVALID_GEOMETRY_ID) return;
   if (!o.instance) {
@@ -100,15 +106,21 @@ void Visibility::move_object(int object, const PatchMesh& mesh) {
   rtcReleaseGeometry(quads);
   rtcCommitScene(o.own[next]);
   o.now = next;
+  o.visible[next] = visible;
   rtcSetGeometryInstancedScene(o.instance, o.own[next]);
+  if (visible)
+    rtcEnableGeometry(o.instance);
+  else
+    rtcDisableGeometry(o.instance);
   rtcCommitGeometry(o.instance);
   rtcCommitScene(top_);
 }
 
 void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigned count) const {
   const Object& o = objects_.at(object);
-  RTCScene scene = o.own[before_move ? 1 - o.now : o.now];
-  if (!scene) return;
+  int state = before_move ? 1 - o.now : o.now;
+  RTCScene scene = o.own[state];
+  if (!scene || !o.visible[state]) return;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   rtcOccluded1M(scene, &context, rays, count, sizeof(RTCRay));

@@ -28,7 +28,8 @@ inline RTCRay make_ray(const dvec3& origin, const dvec3& dir, float tfar) {
 
 class Visibility {
  public:
-  Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects);
+  // Hidden objects are instances switched off: they block nothing until they appear.
+  Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects, const std::vector<bool>& visible);
   ~Visibility();
   Visibility(const Visibility&) = delete;
   Visibility& operator=(const Visibility&) = delete;
@@ -36,11 +37,12 @@ class Visibility {
   // Traces a stream of occlusion rays; an occluded ray comes back with tfar = -inf.
   void occluded(RTCRay* rays, unsigned count) const;
 
-  // An object moved or deformed: its new geometry (from `mesh`) replaces the old one, which is kept
-  // until the next move so an update can ask what the old one blocked. A static object becomes an
-  // instance on its first move (one rebuild of the scene's top level).
-  void move_object(int object, const PatchMesh& mesh);
-  // Rays against one moved object alone, as it is now or as it was before its last move.
+  // An object moved, deformed, appeared or vanished: its new geometry (from `mesh`) and visibility
+  // replace the old ones, which are kept until the next move so an update can ask what the old one
+  // blocked. A static object becomes an instance on its first move (one rebuild of the top level).
+  void move_object(int object, const PatchMesh& mesh, bool visible);
+  // Rays against one moved object alone, as it is now or as it was before its last move (a hidden
+  // object blocks nothing).
   void occluded_by(int object, bool before_move, RTCRay* rays, unsigned count) const;
   // Rays against the whole scene except one moved object.
   void occluded_without(int object, RTCRay* rays, unsigned count) const;
@@ -63,6 +65,7 @@ class Visibility {
     unsigned geometry = RTC_INVALID_GEOMETRY_ID;  // in top_: its quads, or its instance
     RTCGeometry instance = nullptr;
     RTCScene own[2] = {nullptr, nullptr};          // instanced geometry: now and before the last move
+    bool visible[2] = {true, true};
     int now = 0;
   };
   RTCScene new_object_scene();

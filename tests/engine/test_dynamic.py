@@ -51,6 +51,12 @@ STEPS = [
     ("lamp", dict(point=((-0.5, 0.2, 1.2), (1.0, 4.0, 2.0))),
      lambda s, cube: s.set_point_light(0, (-0.5, 0.2, 1.2), (1.0, 4.0, 2.0), 0.05)),
     ("world", dict(world=(0.2, 0.1, 0.0)), lambda s, cube: s.set_world((0.2, 0.1, 0.0))),
+    ("vanish", dict(cube_visible=False), lambda s, cube: s.set_visible(cube, False)),
+    ("move while hidden", dict(cube=(-0.4, 0.3, 0.3)), lambda s, cube: s.set_transform(cube, translation((-0.4, 0.3, 0.3)))),
+    ("appear", dict(cube_visible=True), lambda s, cube: s.set_visible(cube, True)),
+    ("vanish and appear elsewhere", dict(cube=(0.2, 0.2, 0.8)),
+     lambda s, cube: (s.set_visible(cube, False), s.update(), s.set_transform(cube, translation((0.2, 0.2, 0.8))),
+                      s.set_visible(cube, True))),
     ("all at once", dict(cube=(0.3, -0.4, 0.5), cube_scale=(1.0, 1.0, 1.0), lamp_emission=15.0, world=(0.05, 0.05, 0.08)),
      lambda s, cube: (s.set_transform(cube, translation((0.3, -0.4, 0.5))), s.set_positions(cube, cube_positions()[0]),
                       s.set_material(LAMP_MATERIAL, LAMP_RHO, (15.0,) * 3), s.set_world((0.05, 0.05, 0.08)))),
@@ -80,6 +86,19 @@ def test_every_kind_of_change_matches_a_fresh_solve(preset, threshold, patch_siz
         assert np.isfinite(got).all() and got.min() >= 0, name
         error = relative_rms(got, fresh(state, s, patch_size))
         assert error <= bound, f"{name}: {error:.4%} from a fresh solve"
+
+
+def test_a_hidden_object_takes_no_part():
+    s = settings("draft")
+    scene, ids, cube = changing_room(dict(ROOM_STATE, cube_visible=False), patch_size=0.35)
+    hidden = engine.Solver(scene, s)
+    hidden.solve()
+    assert not np.any(hidden.refined(cube)[1])  # no light on it, and it emits nothing
+    scene, room, _ = changing_room(dict(ROOM_STATE, cube_visible=None), patch_size=0.35)
+    without = engine.Solver(scene, s)
+    without.solve()
+    assert ids[:-1] == room
+    assert relative_rms(values(hidden, room), values(without, room)) < 1e-9
 
 
 def plate_room(offset):

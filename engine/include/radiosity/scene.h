@@ -36,6 +36,8 @@ struct MeshDesc {
   int level = 0;           // Catmull-Clark steps
   double patch_size = 0.0; // Bilinear target size in world units; 0 = Settings decides
   bool dynamic = false;    // will move or deform later: kept as an instance in the ray-tracing scene
+  bool visible = true;     // takes part in the lighting; a hidden object is kept (refined, out of
+                           // the ray-tracing scene) so it can appear later without a new Solver
 };
 
 // Point and spot lamps are Cycles' sphere lamps: a disc of `radius` facing the receiver whose total

@@ -48,9 +48,11 @@ class Solver {
 
   // Scene changes, applied by the next update(). Indices are the SceneDesc's. An object keeps its
   // patches: a new transform or new positions must refine to the same topology (else
-  // std::invalid_argument from update()); an object that appears or vanishes needs a new Solver.
+  // std::invalid_argument from update()). An object appears or vanishes with set_visible (one that
+  // was not in the SceneDesc needs a new Solver); a hidden one may move, and appears where it is.
   void set_transform(int object, const dmat4& transform);
   void set_positions(int object, std::vector<dvec3> positions);
+  void set_visible(int object, bool visible);
   void set_material(int index, const Material& material);
   void set_lamp(int index, const Lamp& lamp);  // same type as before
   void set_world(const dvec3& radiance);
