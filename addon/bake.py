@@ -9,6 +9,7 @@
 
 Nothing here writes to Blender data; see writeback.py.
 """
+from dataclasses import replace
 import math
 import os
 import sys
@@ -80,7 +81,7 @@ def _non_manifold_count(m, limit=200000):
 
 def effects_of(sx):
     """Human-readable list of the light transport effects in this export."""
-    kinds = {l.kind for l in sx.lights}
+    kinds = {l.kind for l in sx.lights if l.visible}
     out = []
     for k, label in (("point", "point lamps"), ("spot", "spot lamps"), ("sun", "sun lamps"),
                      ("area", "area lamps")):
@@ -88,12 +89,13 @@ def effects_of(sx):
             out.append(label)
     if np.max(np.asarray(sx.world, np.float64)) > 0:
         out.append("world")
-    used = {int(i) for m in sx.meshes for i in np.unique(m.face_materials)}
+    meshes = sx.visible_meshes
+    used = {int(i) for m in meshes for i in np.unique(m.face_materials)}
     if any(max(sx.materials[i].emission) > 0 for i in used):
         out.append("emission")
-    if any(m.refine == "catmull_clark" for m in sx.meshes):
+    if any(m.refine == "catmull_clark" for m in meshes):
         out.append("Catmull-Clark objects")
-    if sx.meshes:
+    if meshes:
         out.append("diffuse interreflection")
     return ", ".join(out)
 
@@ -123,35 +125,76 @@ def _lamp_call(index, l):
     return "set_area_light", (index, l.position, l.u_half_axis, l.v_half_axis, l.radiance, l.shape)
 
 
-def diff_exports(old, new, ids):
-    """The engine calls that turn the scene `old` (a SceneExport already in a Solver whose mesh ids are
-    `ids`) into `new`: ([(Solver method name, args)], None), or (None, reason) when the engine cannot
-    take the change incrementally (objects added or removed, topology, material assignment, lamp type
-    or area shape, a different material list) and the Solver must be rebuilt.
+# For the messages that report a rebuild (align_export decides what needs one).
+REBUILD_NOTE = ("the engine updates moves, deformations, objects hidden, shown or deleted, materials, lamps "
+                "and the world incrementally, but not new objects, lamps or materials, nor changes of "
+                "topology, material assignment or lamp type")
 
-    Everything is compared with numpy (whole arrays, no per-vertex loops); equal data sends nothing."""
-    calls = []
-    names_old = [m.name for m in old.meshes]
-    names_new = [m.name for m in new.meshes]
-    if names_old != names_new:
-        added = [n for n in names_new if n not in names_old]
-        removed = [n for n in names_old if n not in names_new]
-        if added or removed:
-            what = ", ".join([f"+{n}" for n in added[:3]] + [f"-{n}" for n in removed[:3]])
-            return None, f"objects added or removed ({what})"
-        return None, "objects reordered"
-    for a, b in zip(old.meshes, new.meshes):
+
+def _names(items):
+    return ", ".join(items[:3]) + (" ..." if len(items) > 3 else "")
+
+
+def align_export(old, new):
+    """`new` laid out as the Solver that holds `old` holds it: (SceneExport, None), or (None, reason)
+    when the engine cannot take it and the Solver must be rebuilt.
+
+    A Solver keeps every mesh and lamp it was built with, meshes by id, lamps and materials by index:
+    the result lists them in old's order. A mesh or lamp hidden from render, or missing from `new`
+    (deleted, its collection excluded), is old's, hidden (lamps dark): the engine keeps what it had,
+    only its visibility changes, and it can come back later (undo of a delete). A visible mesh is
+    new's, its material indices mapped to old's list. Rebuild: a mesh, lamp or material the Solver never
+    had, a visible mesh whose topology or material assignment is not the Solver's, a lamp's type or
+    area shape."""
+    new_meshes = {m.name: m for m in new.meshes}
+    new_lights = {l.name: l for l in new.lights}
+    added = sorted((new_meshes.keys() - {m.name for m in old.meshes})
+                   | (new_lights.keys() - {l.name for l in old.lights}))
+    if added:
+        return None, f"objects added ({_names([f'+{n}' for n in added])})"
+    mat_index = {m.name: i for i, m in enumerate(old.materials)}
+    added = [m.name for m in new.materials if m.name not in mat_index]
+    if added:
+        return None, f"new materials ({_names(added)})"
+    materials = list(old.materials)    # a material no object of `new` uses keeps old's values
+    for m in new.materials:
+        materials[mat_index[m.name]] = m
+    to_old = np.array([mat_index[m.name] for m in new.materials] or [0], np.int32)
+    meshes = []
+    for a in old.meshes:
+        b = new_meshes.get(a.name)
+        if b is None or not b.visible:
+            meshes.append(replace(a, visible=False))
+            continue
         if (a.refine != b.refine or a.level != b.level or a.positions.shape != b.positions.shape
                 or not np.array_equal(a.face_sizes, b.face_sizes)
                 or not np.array_equal(a.face_vertices, b.face_vertices)):
             return None, f"'{b.name}' changed topology"
+        b = replace(b, face_materials=to_old[b.face_materials])
         if not np.array_equal(a.face_materials, b.face_materials):
             return None, f"'{b.name}' changed its material assignment"
-    if [m.name for m in old.materials] != [m.name for m in new.materials]:
-        return None, "the list of materials changed"
-    if [(l.name, l.kind, l.shape) for l in old.lights] != [(l.name, l.kind, l.shape) for l in new.lights]:
-        return None, "lamps added, removed or changed type"
+        meshes.append(b)
+    lights = []
+    for a in old.lights:
+        b = new_lights.get(a.name)
+        if b is None or not b.visible:
+            lights.append(exporter.dark(a))
+        elif (a.kind, a.shape) != (b.kind, b.shape):
+            return None, f"lamp '{b.name}' changed type or shape"
+        else:
+            lights.append(b)
+    return replace(new, meshes=meshes, materials=materials, lights=lights), None
+
+
+def diff_exports(old, new, ids):
+    """The engine calls [(Solver method name, args)] that turn the scene `old` (a SceneExport already in
+    a Solver whose mesh ids are `ids`) into `new`, laid out alike (align_export).
+
+    Everything is compared with numpy (whole arrays, no per-vertex loops); equal data sends nothing."""
+    calls = []
     for a, b in zip(old.meshes, new.meshes):
+        if a.visible != b.visible:
+            calls.append(("set_visible", (ids[b.name], b.visible)))
         if not np.array_equal(a.transform, b.transform):
             calls.append(("set_transform", (ids[b.name], b.transform)))
         if not np.array_equal(a.positions, b.positions):
@@ -166,7 +209,7 @@ def diff_exports(old, new, ids):
             calls.append(cb)
     if not _same(old.world, new.world):
         calls.append(("set_world", (np.asarray(new.world, np.float64),)))
-    return calls, None
+    return calls
 
 
 def apply_calls(solver, calls):
@@ -179,7 +222,8 @@ class BakeJob:
 
     With `base` (an earlier, succeeded BakeJob of the same scene and settings) the job is incremental:
     it reuses base's engine Solver and sends only what changed since base's export (diff_exports),
-    then calls Solver.update(). When the engine cannot take the change (objects added or removed,
+    then calls Solver.update(); its `export` is then the scene as that Solver holds it (align_export:
+    deleted objects stay in it, hidden). When the engine cannot take the change (new objects,
     topology, lamp type...) it builds a new Solver and solves the whole scene (`rebuild_reason` says
     why). `base` must not be used afterwards: its Solver now holds this job's scene."""
 
@@ -203,7 +247,7 @@ class BakeJob:
             raise BakeError(f"object '{edit[0]}' is in Edit Mode: switch to Object Mode before baking")
         sx = exporter.export_scene(depsgraph)
         self.export = sx
-        if not sx.meshes:
+        if not sx.visible_meshes:
             raise BakeError("nothing to bake: the scene has no visible mesh objects")
         self.warnings += sx.warnings
         if props is not None:
@@ -218,7 +262,10 @@ class BakeJob:
             elif settings_key(base.settings) != settings_key(self.settings):
                 self.rebuild_reason = "the quality settings changed"
             else:
-                self.calls, self.rebuild_reason = diff_exports(base.export, sx, base.ids)
+                state, self.rebuild_reason = align_export(base.export, sx)
+                if state is not None:
+                    self.calls = diff_exports(base.export, state, base.ids)
+                    self.export = state     # as the Solver will hold it: the next job's diff starts here
         if self.calls is not None:
             self.base = base
             self.solver = base.solver
@@ -226,7 +273,7 @@ class BakeJob:
         else:
             self._build_scene()
         self.effects = effects_of(sx)
-        nm = [] if self.incremental else [m.name for m in sx.meshes if _non_manifold_count(m) > 0]
+        nm = [] if self.incremental else [m.name for m in sx.visible_meshes if _non_manifold_count(m) > 0]
         if nm:
             self.warnings.append("non-manifold or open meshes (fine, both sides reflect): "
                                  + ", ".join(nm[:5]) + (" ..." if len(nm) > 5 else ""))
@@ -322,9 +369,10 @@ class BakeJob:
 
     def colours(self):
         """{object name: (loops, 4) float32 RGBA in the original mesh's loop order} for every
-        exported, non-instanced mesh whose corners match its original mesh."""
+        visible, non-instanced mesh whose corners match its original mesh (a hidden object keeps the
+        colours it has)."""
         out = {}
-        for m in self.export.meshes:
+        for m in self.export.visible_meshes:
             if not m.matches_original or m.name != m.object_name:
                 if m.name == m.object_name:
                     self.warnings.append(f"{m.name}: modifiers change its topology; not written")

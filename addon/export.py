@@ -14,14 +14,14 @@ The engine's unknown is outgoing radiance B = E + rho * irradiance / pi.
 
 Entry point: ``export_scene(depsgraph) -> SceneExport``.
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import math
 
 import bpy
 import numpy as np
 
 __all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "export_scene", "to_engine",
-           "export_materials_of", "material_values", "world_radiance", "light_values",
+           "export_materials_of", "material_values", "world_radiance", "light_values", "dark",
            "POINT_INTENSITY_PER_WATT", "AREA_RADIANCE_FACTOR", "DEFAULT_REFLECTANCE"]
 
 POINT_INTENSITY_PER_WATT = 1.0 / (4.0 * math.pi)   # W/sr per W, point and spot
@@ -53,6 +53,7 @@ class MeshExport:
     matches_original: bool = True     # exported corners == the original mesh's loops (write-back ok)
     animated: bool = False
     object_name: str = ""
+    visible: bool = True          # False: hidden from render; the engine keeps it out of the lighting
 
 
 @dataclass
@@ -73,6 +74,7 @@ class LightExport:
                                       # (the lamp emits along -(u x v); swapped for mirrored lamps)
     shape: str = ""               # "rect" | "disc" (engine names; a disc's axes may differ: ellipse)
     area: float = 0.0             # world area of the area lamp
+    visible: bool = True          # False: hidden from render, exported dark (see dark())
     warnings: list = field(default_factory=list)
 
 
@@ -87,6 +89,11 @@ class SceneExport:
 
     def material_index(self, name):
         return [m.name for m in self.materials].index(name)
+
+    @property
+    def visible_meshes(self):
+        """The meshes that take part in the lighting (and get colours)."""
+        return [m for m in self.meshes if m.visible]
 
     def mesh(self, name):
         for m in self.meshes:
@@ -366,9 +373,19 @@ def light_values(ob_eval, matrix, name=None):
     return le
 
 
+def dark(l):
+    """LightExport `l` hidden: the same lamp, with no power. A Solver keeps the lamps it was built with
+    by index, so hiding or showing a lamp is a change of its power, not a new Solver."""
+    def zero(v):
+        return None if v is None else np.zeros(3)
+    return replace(l, visible=False, intensity=zero(l.intensity), irradiance=zero(l.irradiance),
+                   radiance=zero(l.radiance))
+
+
 # ----------------------------------------------------------------------------- scene
 def export_scene(depsgraph=None, use_render_levels=True):
-    """Export the evaluated scene. Objects hidden from render are skipped."""
+    """Export the evaluated scene. Meshes and lamps hidden from render are exported too (meshes with
+    visible=False, lamps dark()): a Solver built from the export can show them later without a rebuild."""
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     scene = depsgraph.scene_eval
@@ -378,28 +395,32 @@ def export_scene(depsgraph=None, use_render_levels=True):
     counts = {}
     for inst in depsgraph.object_instances:
         ob = inst.object
-        if ob.type not in ('MESH', 'LIGHT') or ob.original.hide_render:
+        if ob.type not in ('MESH', 'LIGHT'):
             continue
         if inst.is_instance:
             counts[ob.name] = counts.get(ob.name, 0) + 1
             name = f"{ob.name}[{counts[ob.name] - 1}]"
         else:
             name = ob.name
-        items.append((ob.original, ob.type, np.array(inst.matrix_world, np.float64), name))
-    todo = {o.name: o for o, kind, _, _ in items if kind == 'MESH' and _needs_reevaluation(o)}
+        items.append((ob.original, ob.type, np.array(inst.matrix_world, np.float64), name,
+                      not ob.original.hide_render))
+    todo = {o.name: o for o, kind, _, _, _ in items if kind == 'MESH' and _needs_reevaluation(o)}
     cages = _cages_by_reevaluation(list(todo.values()), depsgraph)
     try:
-        for orig, kind, M, name in items:
+        for orig, kind, M, name, visible in items:
             ev = orig.evaluated_get(depsgraph)
             if kind == 'MESH':
                 m = export_mesh(ev, depsgraph, M, registry, materials, name, use_render_levels,
                                 cages.get(orig.name))
+                m.visible = visible
                 if len(m.face_sizes):
                     meshes.append(m)
-            else:
+            elif visible:
                 le = light_values(ev, M, name)
                 warnings += le.warnings
                 lights.append(le)
+            else:
+                lights.append(dark(light_values(ev, M, name)))
     finally:
         for me in cages.values():
             bpy.data.meshes.remove(me)
@@ -421,7 +442,7 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None):
         dyn = m.animated if dynamic is None else (m.name in dynamic)
         ids[m.name] = s.add_mesh(m.positions, m.face_sizes, m.face_vertices, mids[m.face_materials],
                                  m.transform, refine=m.refine, level=m.level, patch_size=patch_size,
-                                 dynamic=bool(dyn), name=m.name)
+                                 dynamic=bool(dyn), name=m.name, visible=m.visible)
     for l in sx.lights:
         if l.kind == "point":
             s.add_point_light(l.position, l.intensity, l.radius)

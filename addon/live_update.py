@@ -7,9 +7,10 @@
 - Live update (scene.radiosity.live_update): one engine Solver per scene stays in memory
   (`live_jobs`, started by a bake or by the first change). On a frame change (frame_change_post) or
   an edit (depsgraph_update_post) the evaluated scene is exported and compared with what the Solver
-  last got (bake.diff_exports: transforms, deformed positions, materials, lamps, world); only the
-  differences are sent (Solver.set_*), Solver.update() shoots them, and the colours are written.
-  Objects added or removed, or changed topology, need a new Solver and a full solve (printed).
+  last got (bake.diff_exports: transforms, deformed positions, objects hidden, shown or deleted,
+  materials, lamps, world); only the differences are sent (Solver.set_*), Solver.update() shoots
+  them, and the colours are written (not to hidden objects: they keep theirs). New objects, lamps or
+  materials and changes of topology need a new Solver and a full solve (bake.align_export, printed).
 
 Never while a render runs: a render job (is_job_running('RENDER' / 'OBJECT_BAKE')) or a render
 depsgraph gets no live solves. Cached frames are written only by the render pipeline's own frame
@@ -230,8 +231,8 @@ def sync(scene, depsgraph=None):
             last_sync[scene.name] = info
             return info
         if job.rebuild_reason and base is not None:
-            print(f"Radiosity: live update: {job.rebuild_reason}; the engine does not add, remove or "
-                  f"re-mesh objects incrementally: new solver, full solve ({job.seconds:.2f} s)")
+            print(f"Radiosity: live update: {job.rebuild_reason}; {bake.REBUILD_NOTE}: new solver, "
+                  f"full solve ({job.seconds:.2f} s)")
         if not job.succeeded:
             info.update(mode="error", reason="the solve did not finish")
             last_sync[scene.name] = info

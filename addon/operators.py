@@ -49,8 +49,7 @@ def prepare_frame(context, frame, animation, base=None):
         scene.frame_set(frame)
     job = bake.BakeJob(scene, context.evaluated_depsgraph_get(), scene.radiosity, base=base)
     if base is not None and job.rebuild_reason:
-        print(f"Radiosity: frame {frame}: {job.rebuild_reason}; the engine does not add, remove or re-mesh "
-              "objects incrementally: new solver, full solve")
+        print(f"Radiosity: frame {frame}: {job.rebuild_reason}; {bake.REBUILD_NOTE}: new solver, full solve")
     return job
 
 

@@ -208,9 +208,19 @@ def test_large_mesh_is_vectorised(export, empty_scene):
     assert dt < 2.0, f"export took {dt:.2f} s for 160k vertices"
 
 
-def test_hidden_from_render_is_skipped(export, empty_scene):
+def test_hidden_from_render_is_exported_hidden(export, empty_scene):
+    """Kept in the export (a Solver built from it can show them later), out of the lighting."""
     bpy.ops.mesh.primitive_plane_add()
     bpy.context.object.hide_render = True
-    add_lamp('POINT', energy=10.0).hide_render = True
+    add_lamp('POINT', energy=10.0, location=(0, 0, 2)).hide_render = True
+    add_lamp('SUN', energy=3.0).hide_render = True
     s = export.export_scene()
-    assert s.meshes == [] and s.lights == []
+    assert [(m.name, m.visible) for m in s.meshes] == [("Plane", False)] and s.visible_meshes == []
+    assert len(s.mesh("Plane").face_sizes) == 1
+    point, sun = s.light("POINT"), s.light("SUN")
+    assert not point.visible and point.kind == "point" and not sun.visible and sun.kind == "sun"
+    np.testing.assert_array_equal(point.intensity, 0.0)
+    np.testing.assert_array_equal(sun.irradiance, 0.0)
+    np.testing.assert_allclose(point.position, (0, 0, 2))          # the lamp is there, dark
+    bpy.data.objects["POINT"].hide_render = False
+    np.testing.assert_allclose(export.export_scene().light("POINT").intensity, rgb((1, 1, 1)) * 10 / (4 * PI))

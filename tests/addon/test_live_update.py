@@ -99,21 +99,29 @@ def changed(a, b, tol=1e-4):
     return relative_rms(stacked(a), stacked(b)) > tol
 
 
+def call_names(job):
+    return sorted(c[0] for c in job.calls)
+
+
 # ----------------------------------------------------------------------------- diff (no solve)
+def diff(bake, old, new, ids):
+    """(calls, the scene as the Solver then holds it) or (None, rebuild reason), as BakeJob does."""
+    state, reason = bake.align_export(old, new)
+    return (None, reason) if state is None else (bake.diff_exports(old, state, ids), state)
+
+
 def test_diff_sends_only_what_changed(addon):
     scene = edit_scene()
     bake, export = addon.bake, addon.export
     a = export.export_scene(bpy.context.evaluated_depsgraph_get())
     ids = {m.name: i for i, m in enumerate(a.meshes)}
-    calls, reason = bake.diff_exports(a, a, ids)
-    assert calls == [] and reason is None
+    calls, _ = diff(bake, a, a, ids)
+    assert calls == []
     scene.objects["Box"].location.x = 0.5
     bpy.data.lights["Lamp"].energy = 50.0
     bpy.data.materials["Red"].node_tree.nodes["Diffuse BSDF"].inputs["Color"].default_value = (0.1, 0.8, 0.1, 1)
     scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 2.0
-    b = export.export_scene(bpy.context.evaluated_depsgraph_get())
-    calls, reason = bake.diff_exports(a, b, ids)
-    assert reason is None
+    calls, b = diff(bake, a, export.export_scene(bpy.context.evaluated_depsgraph_get()), ids)
     names = sorted(c[0] for c in calls)
     assert names == ["set_material", "set_point_light", "set_transform", "set_world"], names
     tr = [c for c in calls if c[0] == "set_transform"][0]
@@ -121,13 +129,51 @@ def test_diff_sends_only_what_changed(addon):
     np.testing.assert_allclose([c for c in calls if c[0] == "set_world"][0][1][0], (0.1, 0.1, 0.1), rtol=1e-6)
     # deformation (same topology) -> positions; new object -> rebuild
     scene.objects["Box"].data.vertices[0].co.z -= 0.1
-    c = export.export_scene(bpy.context.evaluated_depsgraph_get())
-    calls, reason = bake.diff_exports(b, c, ids)
+    calls, c = diff(bake, b, export.export_scene(bpy.context.evaluated_depsgraph_get()), ids)
     assert [x[0] for x in calls] == ["set_positions"] and calls[0][1][1].shape == (8, 3)
     ms.box("Box2", (0.2, 0.2, 0.2), (1.0, 1.0, 0.0), 0.0, bpy.data.materials["Red"])
-    d = export.export_scene(bpy.context.evaluated_depsgraph_get())
-    calls, reason = bake.diff_exports(c, d, ids)
+    calls, reason = diff(bake, c, export.export_scene(bpy.context.evaluated_depsgraph_get()), ids)
     assert calls is None and "+Box2" in reason
+
+
+def test_diff_hidden_deleted_and_back(addon):
+    """Hiding, deleting and bringing back meshes and lamps are visibility and power changes; an object
+    back with another topology rebuilds."""
+    scene = edit_scene()
+    bake, export = addon.bake, addon.export
+    now = lambda: export.export_scene(bpy.context.evaluated_depsgraph_get())     # noqa: E731
+    a = now()
+    ids = {m.name: i for i, m in enumerate(a.meshes)}
+    box = scene.objects["Box"]
+    box.hide_render = True
+    box.location.x = 0.5                         # moves while hidden: sent when it shows again
+    scene.objects["Lamp"].hide_render = True
+    calls, b = diff(bake, a, now(), ids)
+    assert [c[0] for c in calls] == ["set_visible", "set_point_light"], calls
+    assert calls[0][1] == (ids["Box"], False)
+    np.testing.assert_array_equal(calls[1][1][2], 0.0)                       # the lamp, dark
+    np.testing.assert_array_equal(b.mesh("Box").transform, a.mesh("Box").transform)
+    # deleted: kept in the Solver's scene, hidden, so the next diff sends nothing for it
+    bpy.data.objects.remove(box)
+    calls, c = diff(bake, b, now(), ids)
+    assert calls == [] and not c.mesh("Box").visible and [m.name for m in c.meshes] == [m.name for m in a.meshes]
+    # back (the same name and topology), elsewhere, and the lamp shown
+    ms.box("Box", (0.6, 0.6, 0.6), (0.9, 0.4, 0.0), 0.0, bpy.data.materials["Red"])
+    scene.objects["Lamp"].hide_render = False
+    calls, d = diff(bake, c, now(), ids)
+    assert sorted(x[0] for x in calls) == ["set_point_light", "set_transform", "set_visible"], calls
+    assert ("set_visible", (ids["Box"], True)) in calls
+    lamp = [x for x in calls if x[0] == "set_point_light"][0][1]
+    np.testing.assert_allclose(lamp[2], a.light("Lamp").intensity)
+    assert d.mesh("Box").visible and d.mesh("Box").transform[0, 3] == pytest.approx(0.9)
+    # back with another topology: a new Solver
+    bpy.data.objects.remove(scene.objects["Box"])
+    calls, e = diff(bake, d, now(), ids)
+    assert calls == [("set_visible", (ids["Box"], False))]
+    ms.box("Box", (0.6, 0.6, 0.6), (0.0, 0.0, 0.0), 0.0, bpy.data.materials["Red"],
+           sides=("+Z", "-Z", "-Y", "+Y", "-X", "+X"))
+    calls, reason = diff(bake, e, now(), ids)
+    assert calls is None and "'Box' changed topology" in reason
 
 
 # ----------------------------------------------------------------------------- handlers
@@ -230,6 +276,114 @@ def test_adding_an_object_rebuilds(addon, capsys):
     assert "full solve" in capsys.readouterr().out
     check_finite(read(scene))
     assert read(scene)["Extra"][:, :3].max() > 0
+
+
+def test_keyframed_hide_render_plays_incrementally(addon):
+    """animated_room with the moving box hidden from render on frames 8-15: it vanishes and comes back
+    where it has moved to, on the same Solver, and those frames match fresh bakes of them."""
+    live = addon.live_update
+    scene = open_blend("animated_room")
+    box = scene.objects["Box"]
+    for f, hidden in ((1, False), (8, True), (16, False)):
+        box.hide_render = hidden
+        box.keyframe_insert("hide_render", frame=f)
+    scene.frame_set(1)
+    scene.radiosity.live_update = True
+    modes, calls, played = [], {}, {}
+    for f in (1, 4, 8, 12, 16):
+        scene.frame_set(f)
+        info = live.last_sync[scene.name]
+        assert info["frame"] == f and box.hide_render == (8 <= f < 16)
+        modes.append(info["mode"])
+        job = live.live_jobs[scene.name]
+        calls[f] = call_names(job) if job.incremental else None
+        played[f] = read(scene)
+        played[f]["Box"] = addon.writeback.read_mesh(box.data)      # read() leaves hidden objects out
+    assert modes == ["full"] + ["incremental"] * 4, (modes, info)
+    # hidden: only its visibility is sent (not its moves); shown: in the place it has reached
+    assert calls == {1: None, 4: ["set_point_light", "set_transform"], 8: ["set_point_light", "set_visible"],
+                     12: ["set_point_light"], 16: ["set_point_light", "set_transform", "set_visible"]}, calls
+    assert ("set_visible", (job.ids["Box"], True)) in job.calls
+    for f in (8, 12):                                        # a hidden object keeps its colours
+        np.testing.assert_array_equal(played[f].pop("Box"), played[4]["Box"])
+    scene.radiosity.live_update = False
+    for f in (8, 16):
+        scene.frame_set(f)
+        err = relative_rms(stacked(played[f]), stacked(fresh_bake(scene)))
+        print(f"keyframed hide_render: frame {f} played vs fresh bake: {100 * err:.3g}% RMS")
+        assert err < BOUND
+    # an animation bake goes on incrementally through the frames it is hidden on, and keeps no
+    # colours for it there (playing them back leaves its own)
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 15, 7                    # 1, 8 and 15
+    assert bpy.ops.radiosity.bake_animation() == {'FINISHED'}
+    cache = addon.operators.frame_cache[scene.name]
+    assert live.live_jobs[scene.name].incremental and ["Box" in cache[f] for f in (1, 8, 15)] == [True, False, False]
+    scene.frame_set(1)
+    scene.frame_set(8)
+    np.testing.assert_array_equal(addon.writeback.read_mesh(box.data), cache[1]["Box"])
+
+
+def test_delete_and_undo_are_incremental(addon):
+    """Deleting an object (the emitting panel) is a visibility change; a later edit leaves it out; undo
+    brings it back, redo deletes it again."""
+    live = addon.live_update
+    scene = edit_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    baked = read(scene)
+    ids = live.live_jobs[scene.name].ids
+    scene.radiosity.live_update = True
+    bpy.ops.ed.undo_push(message="baked")
+    bpy.data.objects.remove(scene.objects["Panel"])
+    bpy.ops.ed.undo_push(message="Panel deleted")
+    bpy.context.view_layer.update()
+    info = live.last_sync[scene.name]
+    assert info["mode"] == "incremental", info
+    assert live.live_jobs[scene.name].calls == [("set_visible", (ids["Panel"], False))]
+    deleted = read(scene)
+    assert changed(deleted, {k: baked[k] for k in deleted}, 0.01)
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 3.0   # undone below
+    bpy.context.view_layer.update()
+    assert call_names(live.live_jobs[scene.name]) == ["set_world"]
+    assert bpy.ops.ed.undo() == {'FINISHED'}                 # its depsgraph update syncs
+    scene = bpy.context.scene
+    info = live.last_sync[scene.name]
+    assert info["mode"] == "incremental", info
+    assert call_names(live.live_jobs[scene.name]) == ["set_visible", "set_world"]
+    err_back = relative_rms(stacked(read(scene)), stacked(baked))
+    assert bpy.ops.ed.redo() == {'FINISHED'}                 # deleted again, from the Solver that has it
+    scene = bpy.context.scene
+    assert "Panel" not in scene.objects and live.last_sync[scene.name]["mode"] == "incremental"
+    redone = read(scene)
+    err_deleted = relative_rms(stacked(redone), stacked(fresh_bake(scene)))
+    print(f"undo of a delete vs the bake before it: {100 * err_back:.3g}% RMS; "
+          f"delete vs fresh bake: {100 * err_deleted:.3g}% RMS")
+    assert err_back < BOUND and err_deleted < BOUND
+
+
+def test_hiding_a_lamp_is_incremental(addon):
+    """A lamp hidden from render is a lamp with no power, on the same Solver; shown again, the same."""
+    live = addon.live_update
+    scene = edit_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    lit = read(scene)
+    scene.radiosity.live_update = True
+    lamp = scene.objects["Lamp"]
+    lamp.hide_render = True
+    bpy.context.view_layer.update()
+    info = live.last_sync[scene.name]
+    (name, args), = live.live_jobs[scene.name].calls
+    assert info["mode"] == "incremental" and name == "set_point_light", info
+    np.testing.assert_array_equal(args[2], 0.0)
+    dark = read(scene)
+    assert changed(dark, lit, 0.1)
+    err_dark = relative_rms(stacked(dark), stacked(fresh_bake(scene)))
+    lamp.hide_render = False                                 # on the fresh Solver, built with it dark
+    bpy.context.view_layer.update()
+    assert live.last_sync[scene.name]["mode"] == "incremental"
+    err_lit = relative_rms(stacked(read(scene)), stacked(lit))
+    print(f"lamp hidden vs fresh bake: {100 * err_dark:.3g}% RMS; shown again vs the first bake: "
+          f"{100 * err_lit:.3g}% RMS")
+    assert err_dark < BOUND and err_lit < BOUND
 
 
 # ----------------------------------------------------------------------------- bake animation
