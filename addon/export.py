@@ -383,6 +383,19 @@ def dark(l):
 
 
 # ----------------------------------------------------------------------------- scene
+def _rendered_collections(scene):
+    """The scene's collections whose objects Cycles renders (as_pointer()s): reached from the scene's
+    own collection without passing through one hidden from render."""
+    rendered, stack = set(), [scene.collection]
+    while stack:
+        c = stack.pop()
+        if c.as_pointer() in rendered or c.hide_render:
+            continue
+        rendered.add(c.as_pointer())
+        stack.extend(c.children)
+    return rendered
+
+
 def export_scene(depsgraph=None, use_render_levels=True):
     """Export the evaluated scene. Meshes and lamps hidden from render are exported too (meshes with
     visible=False, lamps dark()): a Solver built from the export can show them later without a rebuild."""
@@ -393,6 +406,7 @@ def export_scene(depsgraph=None, use_render_levels=True):
     # Collect first: _cages_by_reevaluation re-evaluates the depsgraph, invalidating the iterator.
     items = []
     counts = {}
+    rendered = _rendered_collections(scene.original)
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type not in ('MESH', 'LIGHT'):
@@ -402,8 +416,11 @@ def export_scene(depsgraph=None, use_render_levels=True):
             name = f"{ob.name}[{counts[ob.name] - 1}]"
         else:
             name = ob.name
-        items.append((ob.original, ob.type, np.array(inst.matrix_world, np.float64), name,
-                      not ob.original.hide_render))
+        # An instance's source collection is often hidden from render on purpose: only the object's own
+        # flag counts there.
+        visible = not ob.original.hide_render and (
+            inst.is_instance or any(c.as_pointer() in rendered for c in ob.original.users_collection))
+        items.append((ob.original, ob.type, np.array(inst.matrix_world, np.float64), name, visible))
     todo = {o.name: o for o, kind, _, _, _ in items if kind == 'MESH' and _needs_reevaluation(o)}
     cages = _cages_by_reevaluation(list(todo.values()), depsgraph)
     try:

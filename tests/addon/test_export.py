@@ -224,3 +224,25 @@ def test_hidden_from_render_is_exported_hidden(export, empty_scene):
     np.testing.assert_allclose(point.position, (0, 0, 2))          # the lamp is there, dark
     bpy.data.objects["POINT"].hide_render = False
     np.testing.assert_allclose(export.export_scene().light("POINT").intensity, rgb((1, 1, 1)) * 10 / (4 * PI))
+
+
+def test_collections_hidden_from_render_hide_their_objects(export, empty_scene):
+    """Cycles renders an object in a collection hidden from render (or inside one) only if it is also
+    linked into a collection that is rendered."""
+    outer = bpy.data.collections.new("Outer")
+    inner = bpy.data.collections.new("Inner")
+    bpy.context.scene.collection.children.link(outer)
+    outer.children.link(inner)
+    planes = {}
+    for name, home in (("InInner", inner), ("InOuter", outer), ("Twice", inner)):
+        ob = bpy.data.objects.new(name, bpy.data.meshes.new(name))
+        ob.data.from_pydata([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [], [(0, 1, 2, 3)])
+        home.objects.link(ob)
+        planes[name] = ob
+    bpy.context.scene.collection.objects.link(planes["Twice"])
+    visible = lambda: {m.name: m.visible for m in export.export_scene().meshes}
+    assert visible() == {"InInner": True, "InOuter": True, "Twice": True}
+    outer.hide_render = True
+    assert visible() == {"InInner": False, "InOuter": False, "Twice": True}
+    outer.hide_render, inner.hide_render = False, True
+    assert visible() == {"InInner": False, "InOuter": True, "Twice": True}
