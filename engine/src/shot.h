@@ -32,9 +32,9 @@ struct ShotPatch {
 };
 
 struct ShotCell {
-  Cell cell;
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // at the centre, from the corners it sees; front, back
   int patch = 0;                                 // in Shot::patches
+  Cell cell;
   double u0 = 0.0, v0 = 0.0, size = 1.0;         // the cell's square in its patch's (u, v)
   uint8_t seen[2] = {15, 15};                    // a bit per patch corner its centre sees, per side
 };
