@@ -85,7 +85,8 @@ def cornell_box(patch_size=0.0, emission=15.0):
 
 # The changeable state of `changing_room`, as set_* calls would change it.
 ROOM_STATE = dict(cube=(0.3, -0.4, 0.5), cube_scale=(1.0, 1.0, 1.0), cube_rho=(0.5, 0.6, 0.7), lamp_emission=15.0,
-                  point=((0.5, -0.5, 1.5), (3.0, 3.0, 3.0)), world=(0.05, 0.05, 0.08), cube_visible=True)
+                  point=((0.5, -0.5, 1.5), (3.0, 3.0, 3.0)), world=(0.05, 0.05, 0.08), cube_visible=True,
+                  cube_emission=0.0)
 
 
 def cube_positions(scale=(1.0, 1.0, 1.0), size=0.3):
@@ -101,7 +102,7 @@ def changing_room(state=ROOM_STATE, patch_size=0.0):
     Returns (scene, object ids, cube id); the cube's material is the last one, the ceiling lamp's 3.
     state["cube_visible"] None: no cube at all (ids without it, cube id None)."""
     scene, ids = cornell_box(patch_size, state["lamp_emission"])
-    m = scene.add_material(state["cube_rho"])
+    m = scene.add_material(state["cube_rho"], (state["cube_emission"],) * 3)
     cube_id = None
     if state["cube_visible"] is not None:
         positions, cube = cube_positions(state["cube_scale"])

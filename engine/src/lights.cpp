@@ -42,7 +42,6 @@ void orthonormal_basis(const dvec3& n, dvec3& t, dvec3& b) {
   b = glm::cross(n, t);
 }
 
-
 }  // namespace
 
 double spot_attenuation(const Lamp& lamp, const dvec3& to_receiver_unit) {

@@ -221,6 +221,7 @@ const SolveStats& Solver::Impl::solve(const ProgressCallback& progress) {
 dvec3 Solver::Impl::corner_value(int slot) const {
   if (slot < 0) return dvec3(0.0);
   const Patch& patch = mesh.patches[slot / 4];
+  if (!scene.meshes[patch.object].visible) return dvec3(0.0);  // it takes no part: no light, no emission
   const Material& m = scene.materials[patch.material];
   return m.emission + m.reflectance * front[patch.point[slot % 4]];
 }

@@ -75,6 +75,7 @@ struct Solver::Impl {
   void apply_delta();
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
   void apply_direct_delta();    // apply_delta() for a change of direct light: the residual's scale follows
+  void add_direct_power(double change);  // the residual's scale follows the direct light that lands
 
   // Sources of a gather, `scale` times their strength: everything, or only the shooters `only`
   // marks (one flag per shooter).
@@ -94,6 +95,7 @@ struct Solver::Impl {
 
   // dynamic_update.cpp
   const SolveStats& update(const ProgressCallback& progress);
+  void restart();  // forgets all light gathered and shot: the next solve() starts from the lamps
   void gather_direct_change(const std::vector<Source>& sources);  // everywhere, then applied
   void change_world(const dvec3& world);
   void change_lamp(int index, const Lamp& lamp);

@@ -52,14 +52,19 @@ STEPS = [
      lambda s, cube: s.set_point_light(0, (-0.5, 0.2, 1.2), (1.0, 4.0, 2.0), 0.05)),
     ("world", dict(world=(0.2, 0.1, 0.0)), lambda s, cube: s.set_world((0.2, 0.1, 0.0))),
     ("vanish", dict(cube_visible=False), lambda s, cube: s.set_visible(cube, False)),
+    ("emission while hidden", dict(cube_emission=5.0),
+     lambda s, cube: s.set_material(CUBE_MATERIAL, (0.9, 0.2, 0.1), (5.0,) * 3)),
     ("move while hidden", dict(cube=(-0.4, 0.3, 0.3)), lambda s, cube: s.set_transform(cube, translation((-0.4, 0.3, 0.3)))),
-    ("appear", dict(cube_visible=True), lambda s, cube: s.set_visible(cube, True)),
+    ("an emitter appears", dict(cube_visible=True), lambda s, cube: s.set_visible(cube, True)),
     ("vanish and appear elsewhere", dict(cube=(0.2, 0.2, 0.8)),
      lambda s, cube: (s.set_visible(cube, False), s.update(), s.set_transform(cube, translation((0.2, 0.2, 0.8))),
                       s.set_visible(cube, True))),
-    ("all at once", dict(cube=(0.3, -0.4, 0.5), cube_scale=(1.0, 1.0, 1.0), lamp_emission=15.0, world=(0.05, 0.05, 0.08)),
+    ("an emitter vanishes", dict(cube_visible=False), lambda s, cube: s.set_visible(cube, False)),
+    ("all at once", dict(cube=(0.3, -0.4, 0.5), cube_scale=(1.0, 1.0, 1.0), lamp_emission=15.0, world=(0.05, 0.05, 0.08),
+                         cube_visible=True),
      lambda s, cube: (s.set_transform(cube, translation((0.3, -0.4, 0.5))), s.set_positions(cube, cube_positions()[0]),
-                      s.set_material(LAMP_MATERIAL, LAMP_RHO, (15.0,) * 3), s.set_world((0.05, 0.05, 0.08)))),
+                      s.set_material(LAMP_MATERIAL, LAMP_RHO, (15.0,) * 3), s.set_world((0.05, 0.05, 0.08)),
+                      s.set_visible(cube, True))),
 ]
 
 
@@ -90,7 +95,7 @@ def test_every_kind_of_change_matches_a_fresh_solve(preset, threshold, patch_siz
 
 def test_a_hidden_object_takes_no_part():
     s = settings("draft")
-    scene, ids, cube = changing_room(dict(ROOM_STATE, cube_visible=False), patch_size=0.35)
+    scene, ids, cube = changing_room(dict(ROOM_STATE, cube_visible=False, cube_emission=20.0), patch_size=0.35)
     hidden = engine.Solver(scene, s)
     hidden.solve()
     assert not np.any(hidden.refined(cube)[1])  # no light on it, and it emits nothing
@@ -99,6 +104,29 @@ def test_a_hidden_object_takes_no_part():
     without.solve()
     assert ids[:-1] == room
     assert relative_rms(values(hidden, room), values(without, room)) < 1e-9
+
+
+# The cube's emission is nearly all the light (the first case) or all of it (the second): the
+# residual's scale, the light that lands, must follow it as it vanishes or appears.
+BRIGHT_CUBE = dict(ROOM_STATE, cube_emission=20.0, point=((0.5, -0.5, 1.5), (0.0, 0.0, 0.0)), world=(0.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("ceiling", [0.2, 0.0])
+def test_the_residual_follows_an_emitter_that_vanishes_or_appears(ceiling):
+    s = settings("default")
+    start = dict(BRIGHT_CUBE, lamp_emission=ceiling, cube_visible=ceiling > 0)
+    scene, ids, cube = changing_room(start, patch_size=0.35)
+    solver = engine.Solver(scene, s)
+    solver.solve()
+    for visible in (not start["cube_visible"], start["cube_visible"]):
+        solver.set_visible(cube, visible)
+        solver.update()
+        got = values(solver, ids)
+        if ceiling == 0 and not visible:  # the only light gone: the room goes dark
+            assert not np.any(got)
+            continue
+        error = relative_rms(got, fresh(dict(start, cube_visible=visible), s, 0.35))
+        assert error <= 0.01, f"cube visible={visible}: {error:.4%} from a fresh solve"
 
 
 def plate_room(offset):

@@ -40,8 +40,8 @@ struct Cell {
 SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n);
 
 // Form factor from (x, n) to a distant cell that the receiver's plane does not come near, by the
-// point kernel expanded to second order about the cell's centroid: relative error O((radius /
-// distance)^4) (third order for cells without central symmetry), for a fraction of Lambert's cost.
+// point kernel expanded to second order about the cell's centroid: error O((radius / distance)^4)
+// of A / (pi r^2) (third order for cells without central symmetry), for a fraction of Lambert's cost.
 // Nothing when the expansion does not hold there. Inline: it runs for most cells a receiver visits.
 inline std::optional<double> distant_cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
   // Beyond this many radii the error is below 2e-4 of A / (pi r^2), and over a whole view it

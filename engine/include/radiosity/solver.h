@@ -68,7 +68,8 @@ class Solver {
   void record_rays(int stride);
   double replay_recorded_rays() const;
 
-  // Outgoing radiance on the front side at each input face corner / vertex (mean of its corners).
+  // Outgoing radiance on the front side at each input face corner / vertex (mean of its corners);
+  // zero on a hidden object.
   std::vector<float> corner_radiance(int object) const;  // 3 floats per face corner
   std::vector<float> vertex_radiance(int object) const;  // 3 floats per input vertex
 
