@@ -211,7 +211,8 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   };
   // Direct light (lamps, world, emission) that lands sets the residual's scale, which must follow
   // it (an emitter that vanishes or appears, a shadow that moves): direct and reflected light are
-  // gathered apart, and every direct gather goes through apply_direct_delta.
+  // gathered apart, direct through apply_direct_delta. (Left out: a near emitter re-sent because
+  // the object changed what its samples see of it, a small change.)
   auto emit_own = [&](double sign) {
     std::vector<Source> emitted = direct_sources(sign, &own);
     if (emitted.empty()) return;
