@@ -256,20 +256,20 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   apply_delta();
 
   // Everything else: only the rays the move changed, for receivers and sources it may stand between.
-  for (const std::vector<Source>* others : {&others_direct, &others_reflected}) {
+  auto gather_changed = [&](const std::vector<Source>& others) {
     gather_all(elsewhere, [&] { return delta_batch(object); },
                [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
                  long long pushed = batch.rays_pushed();
-                 for (const Source& s : *others)
+                 for (const Source& s : others)
                    if (s.shooter < 0 || !own[s.shooter]) s.gather(i, p, batch, &zone);
                  if (batch.rays_pushed() > pushed) touched[i] = 1;
                },
                kWhole);
-    if (others == &others_direct)
-      apply_direct_delta();
-    else
-      apply_delta();
-  }
+  };
+  gather_changed(others_direct);
+  apply_direct_delta();
+  gather_changed(others_reflected);
+  apply_delta();
 
   // The object's own receiving points: everything, anew (nothing, if it vanished).
   double own_direct_after = direct_on_own();
