@@ -143,20 +143,13 @@ Shot area_lamp_shot(const Lamp& lamp, int samples, double near_factor) {
   shot.near_factor = near_factor;
   ShotElement e;
   std::vector<Cell> cells(k * k);
+  const std::vector<uint8_t> all_corners(k * k, 15);
+  const std::vector<uint8_t>* seen[2] = {&all_corners, nullptr};  // it emits from its front only
   for (const auto& q : quads) {
     ShotPatch patch;
     for (int c = 0; c < 4; ++c) patch.corner[c] = q[c], patch.radiance[c][0] = lamp.color, patch.radiance[c][1] = dvec3(0.0);
     bilinear_cells(q.data(), k, cells.data());
-    for (int j = 0; j < k; ++j)
-      for (int i = 0; i < k; ++i) {
-        ShotCell sc;
-        sc.cell = cells[j * k + i];
-        sc.radiance[0] = lamp.color;
-        sc.patch = int(shot.patches.size());
-        sc.u0 = double(i) / k, sc.v0 = double(j) / k, sc.size = 1.0 / k;
-        shot.cells.push_back(sc);
-      }
-    shot.patches.push_back(patch);
+    add_patch(shot, patch, cells, k, seen);
   }
   e.cell_end = int(shot.cells.size());
   shot.elements.push_back(e);

@@ -135,27 +135,32 @@ struct ShotBuilder {
           }
         });
       }
-      int index = int(shot.patches.size());
-      shot.patches.push_back(light);
-      for (int j = 0; j < k; ++j)
-        for (int i = 0; i < k; ++i) {
-          ShotCell sc;
-          sc.cell = cells[j * k + i];
-          if (!(sc.cell.area > 0)) continue;
-          sc.patch = index;
-          sc.u0 = double(i) / k, sc.v0 = double(j) / k, sc.size = 1.0 / k;
-          for (int s = 0; s < 2; ++s) {
-            sc.seen[s] = seen[s] ? (*seen[s])[j * k + i] : 0;  // by visibility alone: linear in the radiance
-            sc.radiance[s] = radiance_at(light, s, sc.seen[s], sc.u0 + 0.5 * sc.size, sc.v0 + 0.5 * sc.size);
-          }
-          shot.cells.push_back(sc);
-        }
+      add_patch(shot, light, cells, k, seen);
     }
     e.cell_end = int(shot.cells.size());
   }
 };
 
 }  // namespace
+
+void add_patch(Shot& shot, const ShotPatch& patch, const std::vector<Cell>& cells, int k,
+               const std::vector<uint8_t>* const seen[2]) {
+  int index = int(shot.patches.size());
+  shot.patches.push_back(patch);
+  for (int j = 0; j < k; ++j)
+    for (int i = 0; i < k; ++i) {
+      ShotCell sc;
+      sc.cell = cells[j * k + i];
+      if (!(sc.cell.area > 0)) continue;
+      sc.patch = index;
+      sc.u0 = double(i) / k, sc.v0 = double(j) / k, sc.size = 1.0 / k;
+      for (int s = 0; s < 2; ++s) {
+        sc.seen[s] = seen[s] ? (*seen[s])[j * k + i] : 0;  // by visibility alone: linear in the radiance
+        sc.radiance[s] = radiance_at(patch, s, sc.seen[s], sc.u0 + 0.5 * sc.size, sc.v0 + 0.5 * sc.size);
+      }
+      shot.cells.push_back(sc);
+    }
+}
 
 void ShotCache::forget(const std::vector<int>& patches, int node_begin, int node_end) {
   for (int p : patches)

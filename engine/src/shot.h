@@ -72,6 +72,12 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
                   int node,
                   const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor);
 
+// Appends `patch` and its k x k `cells` (in bilinear_cells' order) to the shot. A cell is lit, per
+// side, by the patch corners its centre sees: `seen[side]` holds a bit per corner for each cell, or
+// is null for a side that sends nothing.
+void add_patch(Shot& shot, const ShotPatch& patch, const std::vector<Cell>& cells, int k,
+               const std::vector<uint8_t>* const seen[2]);
+
 // Radiance a patch sends from side `side` at (u, v), interpolated over the corners in `corners`
 // (a bit each) alone.
 dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, double v);
