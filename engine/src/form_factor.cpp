@@ -90,11 +90,8 @@ SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
   return f;
 }
 
-namespace {
-
-// Centroid and second moment (per unit area, flattened into the cell's plane) of the quad cell's
-// area, summed over its two triangles relative to its centre.
 void area_moments(Cell& c) {
+  // The two triangles' moments relative to the centre, flattened into the cell's plane.
   dvec3 q[4];
   for (int i = 0; i < 4; ++i) q[i] = c.corners[i] - c.centre;
   double area = 0.0;
@@ -121,8 +118,6 @@ void area_moments(Cell& c) {
   c.spread = flat * (second / area - glm::outerProduct(offset, offset)) * flat;
 }
 
-}  // namespace
-
 void bilinear_cells(const dvec3 p[4], int k, Cell* out) {
   double h = 1.0 / k;
   for (int j = 0; j < k; ++j) {
@@ -140,7 +135,6 @@ void bilinear_cells(const dvec3 p[4], int k, Cell* out) {
       c.normal = c.area > 0 ? va / c.area : dvec3(0.0);
       c.radius = 0.0;
       for (const dvec3& q : c.corners) c.radius = std::fmax(c.radius, glm::length(q - c.centre));
-      area_moments(c);
     }
   }
 }

@@ -152,6 +152,7 @@ void add_patch(Shot& shot, const ShotPatch& patch, const std::vector<Cell>& cell
       ShotCell sc;
       sc.cell = cells[j * k + i];
       if (!(sc.cell.area > 0)) continue;
+      area_moments(sc.cell);
       sc.patch = index;
       sc.u0 = double(i) / k, sc.v0 = double(j) / k, sc.size = 1.0 / k;
       for (int s = 0; s < 2; ++s) {

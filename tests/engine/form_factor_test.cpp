@@ -216,6 +216,7 @@ TEST(PointToSurface, CoplanarCellGivesNothing) {
 double distant_cell_error(const std::vector<dvec3>& quad, double radii) {
   Cell cell;
   bilinear_cells(quad.data(), 1, &cell);
+  area_moments(cell);
   std::mt19937 random(7);
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
   auto direction = [&] {

@@ -74,8 +74,13 @@ inline std::optional<double> distant_cell_form_factor(const Cell& cell, const dv
 }
 
 // Splits the bilinear patch p0 p1 p2 p3 (counter-clockwise) into k x k cells at their centres:
-// the paper's m x n micro-elements, evaluated by the midpoint rule.
+// the paper's m x n micro-elements, evaluated by the midpoint rule. Their area moments are left to
+// area_moments: the pieces a near cell is split into never need them.
 void bilinear_cells(const dvec3 p[4], int k, Cell* out);
+
+// The cell's centroid, reach and second moment (per unit area, in its plane), which
+// distant_cell_form_factor reads.
+void area_moments(Cell& cell);
 
 // Bilinear interpolation of four corner values at (u, v), corners ordered as the patch.
 template <class T>
