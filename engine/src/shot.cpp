@@ -277,11 +277,6 @@ void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centr
   batch.to_point(receiver, x, n, target, normal, cos_r > 0, rad * factor, lift);
 }
 
-// Within this many radii of a receiver a cell is split 2 x 2 for visibility, down to kSplitDepth
-// times: one ray to the centre of a cell that straddles an occluder's edge (a floor cell half under
-// a box, seen from the box's foot) would count the whole cell as lit or as dark.
-constexpr double kSplitRadii = 2.0;
-constexpr int kSplitDepth = 3;
 
 // What lights the pieces of one cell near a receiver: its patch, the side facing the receiver, and
 // the patch corners that light the part of the cell in front of the receiver's plane and the part
@@ -290,6 +285,7 @@ struct NearLight {
   const ShotPatch& patch;
   int side;
   uint8_t corners[2];
+  const Shot& shot;  // how far to split
 };
 
 // A piece of a cell: the cell itself or a quarter of a piece, with its square in the patch's (u, v).
@@ -336,7 +332,10 @@ void part_centroid(const Piece& p, const double h[4], int part, double& u, doubl
 void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, const NearLight& light, int depth,
                  OcclusionBatch& batch) {
   dvec3 d = p.cell.centre - x;
-  if (depth < kSplitDepth && glm::dot(d, d) < kSplitRadii * kSplitRadii * p.cell.radius * p.cell.radius) {
+  // Split near the receiver: one ray to the centre of a cell that straddles an occluder's edge (a
+  // floor cell half under a box, seen from the box's foot) would count the whole cell as lit or dark.
+  double split = light.shot.split_radii * p.cell.radius;
+  if (depth < light.shot.split_depth && glm::dot(d, d) < split * split) {
     Cell cells[4];
     bilinear_cells(p.cell.corners, 2, cells);
     double half = 0.5 * p.size;
@@ -351,7 +350,9 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
   if (f.front == 0 && f.back == 0) return;
   // One ray to `target` carries the light of the part on side `part` of the receiver's plane.
   auto send = [&](int part, double u, double v, const dvec3& target) {
-    dvec3 e = radiance_at(light.patch, light.side, light.corners[part], u, v) * (part == 0 ? f.front : f.back);
+    dvec3 radiance = radiance_at(light.patch, light.side, light.corners[part], u, v);
+    if (light.patch.piece) radiance += (*light.patch.piece)(target, p.cell.normal, light.side);
+    dvec3 e = radiance * (part == 0 ? f.front : f.back);
     if (!is_zero(e))
       batch.to_point(receiver, x, n, target, p.cell.normal, part == 0, e, light.patch.lift);
   };
@@ -374,10 +375,11 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
 // there. Where the centre sees corners on both sides, something else divides the patch (a wall
 // between two rooms) and the centre's view holds for the whole cell. (Not caught: a wall parallel
 // to the receiver's surface, less than a patch from it, over a patch that also runs under both.)
-void exact_cell(int receiver, const dvec3& x, const dvec3& n, const ShotCell& sc, const ShotPatch& patch, int side,
+void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot& shot, const ShotCell& sc, int side,
                 OcclusionBatch& batch) {
+  const ShotPatch& patch = shot.patches[sc.patch];
   uint8_t seen = sc.seen[side];
-  NearLight light{patch, side, {seen, seen}};
+  NearLight light{patch, side, {seen, seen}, shot};
   if (seen != 15) {
     double tolerance = 1e-9 * sc.cell.radius;
     bool above = false, below = false;
@@ -394,7 +396,7 @@ void exact_cell(int receiver, const dvec3& x, const dvec3& n, const ShotCell& sc
       if ((seen & ~back) == 0) light.corners[0] = front;
     }
   }
-  bool lit = false;
+  bool lit = patch.piece != nullptr;  // it may light a piece its corners leave dark
   for (int c = 0; c < 4; ++c)
     lit |= ((light.corners[0] | light.corners[1]) & (1 << c)) && !is_zero(patch.radiance[c][side]);
   if (lit) exact_piece(receiver, x, n, {sc.cell, sc.u0, sc.v0, sc.size}, light, 0, batch);
@@ -429,7 +431,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
             far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, *factor, sc.radiance, patch.lift, batch);
             continue;
           }
-          exact_cell(receiver, x, n, sc, patch, glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1, batch);
+          exact_cell(receiver, x, n, shot, sc, glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1, batch);
         }
         continue;
       }

@@ -14,6 +14,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <unordered_map>
 #include <vector>
 
@@ -22,13 +23,18 @@ namespace radiosity {
 // Unshot radiance of a patch, per corner and side: [corner * 2 + side], side 0 = front.
 using CornerUnshot = std::array<dvec3, 8>;
 
+// Radiance a patch sends from side `side` of its point y (normal m), worked out there.
+using PieceRadiance = std::function<dvec3(const dvec3& y, const dvec3& m, int side)>;
+
 // A shooting patch (or area lamp quad): its corners and the radiance it sends from each, per side.
-// Near a receiver its cells are integrated piece by piece, each piece lit by interpolation there.
+// Near a receiver its cells are integrated piece by piece, each piece lit by interpolation there,
+// plus `piece` at the piece where given.
 struct ShotPatch {
   dvec3 corner[4];
   dvec3 radiance[4][2];              // [corner][side], side 0 = front
   int point[4] = {-1, -1, -1, -1};   // receiving points at the corners (none for lamps)
   double lift = 0.0;  // how far its bilinear surface may lie off the two triangles Embree traces
+  const PieceRadiance* piece = nullptr;
 };
 
 struct ShotCell {
@@ -55,6 +61,11 @@ struct Shot {
   std::vector<ShotPatch> patches;
   std::vector<int> frontier;
   double near_factor = 3.0;
+  // A cell nearer a receiver than split_radii of its radii is split 2 x 2 (each piece one ray), at
+  // most split_depth times: more where the light varies within a cell, as the exact direct light
+  // of near_direct.cpp does.
+  double split_radii = 2.0;
+  int split_depth = 3;
 };
 
 // What shot samples see of their own shooter, per side: cell centre to patch corners (a bit each),

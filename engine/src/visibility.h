@@ -92,8 +92,10 @@ class Visibility {
 // blocks it; a ray the object blocks both times, or neither, costs no trace of the full scene.
 class OcclusionBatch {
  public:
-  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object = -1)
-      : vis_(vis), front_(front), back_(back), changed_object_(changed_object) {}
+  // The accumulators hold receivers from `first_receiver` on: points that are not receiving points
+  // (pieces of a patch) gather under indices past the last one, into arrays of their own.
+  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object = -1, int first_receiver = 0)
+      : vis_(vis), front_(front), back_(back), changed_object_(changed_object), first_(first_receiver) {}
   ~OcclusionBatch() { flush(); }
 
   // Segment from receiver point x (normal n) to target y, carrying `irradiance` to the receiver's
@@ -124,7 +126,7 @@ class OcclusionBatch {
   // A segment is pushed with tfar = kSegment; flush() shortens it to stop epsilon before its end.
   static constexpr float kSegment = 1.0f;
 
-  dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver]; }
+  dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver - first_]; }
   void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
     ++pushed_;
     rays_[count_] = make_ray(origin, dir, tfar);
@@ -139,6 +141,7 @@ class OcclusionBatch {
   dvec3* front_;
   dvec3* back_;
   int changed_object_;
+  int first_;
   RTCRay rays_[kCapacity];
   dvec3* into_[kCapacity];  // the accumulator (receiver and side) each ray adds to
   dvec3 carried_[kCapacity];
