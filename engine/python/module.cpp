@@ -158,6 +158,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def_readwrite("near_factor", &Settings::near_factor)
       .def_readwrite("threshold", &Settings::threshold)
       .def_readwrite("relaxation", &Settings::relaxation)
+      .def_readwrite("exact_near_direct", &Settings::exact_near_direct)
       .def_readwrite("max_shots", &Settings::max_shots);
 
   py::class_<SceneDesc>(m, "Scene")

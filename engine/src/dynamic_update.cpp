@@ -45,6 +45,7 @@ Sphere bounds_of(const std::vector<dvec3>& points, double margin) {
 
 const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   auto start = std::chrono::steady_clock::now();
+  near_direct.reset();
   cancel_requested = false;
   stats.cancelled = false;
   touched.assign(mesh.points.size(), 0);

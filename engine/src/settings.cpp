@@ -11,6 +11,7 @@ Settings Settings::preset(const std::string& name) {
     s.samples_indirect = 4;
     s.patch_size_relative = 1.0 / 16.0;
     s.threshold = 1e-2;
+    s.exact_near_direct = false;
   } else if (name == "default") {
     // the defaults above
   } else if (name == "high") {

@@ -201,6 +201,7 @@ void Solver::Impl::propagate(const ProgressCallback& progress) {
 
 const SolveStats& Solver::Impl::solve(const ProgressCallback& progress) {
   auto start = std::chrono::steady_clock::now();
+  near_direct.reset();
   cancel_requested = false;
   stats.cancelled = false;
   if (!injected) {
@@ -218,12 +219,13 @@ const SolveStats& Solver::Impl::solve(const ProgressCallback& progress) {
   return stats;
 }
 
-dvec3 Solver::Impl::corner_value(int slot) const {
+dvec3 Solver::Impl::corner_value(int slot, bool near) const {
   if (slot < 0) return dvec3(0.0);
   const Patch& patch = mesh.patches[slot / 4];
   if (!scene.meshes[patch.object].visible) return dvec3(0.0);  // it takes no part: no light, no emission
   const Material& m = scene.materials[patch.material];
-  return m.emission + m.reflectance * front[patch.point[slot % 4]];
+  int point = patch.point[slot % 4];
+  return m.emission + m.reflectance * (front[point] + (near ? near_direct_correction(point) : dvec3(0.0)));
 }
 
 Solver::Solver(SceneDesc scene, const Settings& settings)
@@ -292,9 +294,13 @@ PowerBalance Solver::power_balance() const {
 
 std::vector<float> Solver::corner_radiance(int object) const {
   const ObjectPatches& obj = impl_->mesh.objects.at(object);
+  std::vector<int> points;
+  for (int slot : obj.corner_slot)
+    if (slot >= 0) points.push_back(impl_->mesh.patches[slot / 4].point[slot % 4]);
+  impl_->prepare_near_direct(points);
   std::vector<float> out(3 * obj.corner_slot.size());
   for (size_t i = 0; i < obj.corner_slot.size(); ++i) {
-    dvec3 b = glm::max(impl_->corner_value(obj.corner_slot[i]), dvec3(0.0));  // round-off negatives
+    dvec3 b = glm::max(impl_->corner_value(obj.corner_slot[i], true), dvec3(0.0));  // round-off negatives
     for (int k = 0; k < 3; ++k) out[3 * i + k] = float(b[k]);
   }
   return out;
@@ -324,7 +330,7 @@ Solver::Refined Solver::refined(int object) const {
   for (int p = obj.patch_begin; p < obj.patch_end; ++p)
     for (int c = 0; c < 4; ++c) {
       dvec3 pos = s.mesh.vertices[s.mesh.patches[p].vertex[c]] + s.mesh.origin;
-      dvec3 b = glm::max(s.corner_value(p * 4 + c), dvec3(0.0));
+      dvec3 b = glm::max(s.corner_value(p * 4 + c, false), dvec3(0.0));
       for (int k = 0; k < 3; ++k) r.positions.push_back(pos[k]), r.radiance.push_back(float(b[k]));
     }
   return r;

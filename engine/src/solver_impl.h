@@ -105,7 +105,16 @@ struct Solver::Impl {
   void place(int object, const MeshDesc& mesh, const RefinedMesh& refined);  // geometry only
   void forget_shooter(int s);  // its cached views of itself
 
-  dvec3 corner_value(int slot) const;
+  // Outgoing front radiance at a patch corner; with `near`, with near_direct_correction.
+  dvec3 corner_value(int slot, bool near) const;
+  // near_direct.cpp: what a reported point's front side gains from the direct light its near
+  // surroundings reflect, evaluated where it lands; worked out on first use after a solve or update.
+  struct NearDirect;
+  mutable std::shared_ptr<NearDirect> near_direct;  // shared_ptr: NearDirect is complete only there
+  dvec3 near_direct_correction(int point) const;
+  void prepare_near_direct(const std::vector<int>& points) const;  // for many points, on all cores
+  const struct NearDetail* near_detail(int patch) const;  // null if it needs none
+  std::array<dvec3, 2> direct_at(const dvec3& y, const dvec3& normal) const;  // H per side
 };
 
 template <class Wanted, class MakeBatch, class Gather>

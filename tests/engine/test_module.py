@@ -99,6 +99,46 @@ def test_box_standing_on_the_floor_is_lit_at_its_foot():
     assert foot.min() > 0.97 * expected and foot.max() < 1.1 * expected
 
 
+def lit_wedge_form_factor(height, inset, a, n=2000):
+    """Form factor, from a point `height` over the floor on a wall facing +v and `inset` along it
+    (towards -u) from a corner at the origin, to the floor where u > -a v (v > 0): the floor beside
+    the corner lit, a shadow edge leaving the corner along (-a, 1). Polar about the point's foot,
+    rho = height tan(t) so the kernel's peak under the point is sampled finely."""
+    p = (np.arange(n) + 0.5) / n * math.pi
+    t = (np.arange(n) + 0.5) / n * math.pi / 2
+    p, t = np.meshgrid(p, t, indexing="ij")
+    rho = height * np.tan(t)
+    u, v = -inset + rho * np.cos(p), rho * np.sin(p)
+    kernel = v * height / (math.pi * (rho ** 2 + height ** 2) ** 2) * rho * height / np.cos(t) ** 2
+    return float((kernel * (u > -a * v)).sum() * (math.pi / n) * (math.pi / 2 / n))
+
+
+@pytest.mark.parametrize("patch_size", [0.5, 0.2, 0.1])
+def test_foot_where_a_shadow_edge_starts_sees_the_lit_floor_exactly(patch_size):
+    # A slanting sun: the box's shadow edge leaves its corner (1, -1) along (-a, -1), in the box's
+    # frame, so the foot of its -y face sees the floor lit on one side of that edge and dark on the
+    # other. Patches straddle the edge at any size, and interpolating them gives 1.3-2.1 times the
+    # value below; exact_near_direct evaluates the floor's direct light at the pieces the foot sees
+    # (0.99-1.03 times it). The point sits on its corner patch's diagonal, a hair off the floor and the corner (the
+    # ratio of the two is what counts, the wedge looks the same at every scale): there it gets
+    # RHO E cos / pi times the lit wedge's form factor. The box reflects little (box_rho): what the
+    # floor gets back from it stays below 0.5%.
+    a, box_rho, angle = 0.5, 0.1, 0.3
+    scene, floor = floor_scene(6.0)
+    travel = np.array([-a, -1.0, -1.5]) / np.linalg.norm([-a, -1.0, -1.5])
+    c, s = math.cos(angle), math.sin(angle)
+    scene.add_sun_light((c * travel[0] - s * travel[1], s * travel[0] + c * travel[1], travel[2]), (3, 3, 3))
+    floor.add_to(scene, refine="bilinear", patch_size=patch_size)
+    box = Mesh()
+    box.add_box((0.13, 0.21, 0.4), (0.8, 0.8, 0.8), scene.add_material((box_rho,) * 3), angle=angle)
+    del box.faces[0], box.materials[0]
+    obj = box.add_to(scene, refine="bilinear", patch_size=patch_size)
+    expected = box_rho * RHO * 3 * -travel[2] / math.pi * lit_wedge_form_factor(1.0, 1.0, a)
+    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    solver.solve()
+    assert solver.corner_radiance(obj)[5, 0] == pytest.approx(expected, rel=0.04)  # -y face, corner (1, -1, -1)
+
+
 def test_arrays_progress_and_stats():
     scene, ids = cornell_box()
     solver = engine.Solver(scene, engine.Settings.preset("draft"))

@@ -19,6 +19,9 @@ struct Settings {
   double near_factor = 3.0;
   double threshold = 1e-3;   // stop when unshot power / injected power falls below this
   double relaxation = 1.3;   // over-relaxation of reflected shots (1 = plain progressive refinement)
+  // Reported points gather the direct light their near surroundings reflect once more, evaluated
+  // where it lands rather than interpolated from patch corners (near_direct.cpp).
+  bool exact_near_direct = true;
   long max_shots = 2000000;  // a guard: rho near 1 must end, the residual says how far it got
 
   static Settings preset(const std::string& name);  // draft, default, high, reference

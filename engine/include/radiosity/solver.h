@@ -69,11 +69,14 @@ class Solver {
   double replay_recorded_rays() const;
 
   // Outgoing radiance on the front side at each input face corner / vertex (mean of its corners);
-  // zero on a hidden object.
+  // zero on a hidden object. With Settings::exact_near_direct, the direct light of the surfaces
+  // right around each corner is evaluated where it lands (near_direct.cpp), on first read after a
+  // solve or update.
   std::vector<float> corner_radiance(int object) const;  // 3 floats per face corner
   std::vector<float> vertex_radiance(int object) const;  // 3 floats per input vertex
 
-  // The refined patch mesh of one object, for inspection and pictures (world positions).
+  // The refined patch mesh of one object, for inspection and pictures (world positions), with the
+  // radiance as solved at every patch corner (near light interpolated).
   struct Refined {
     std::vector<double> positions;  // 3 per patch corner, 4 corners per patch
     std::vector<float> radiance;    // 3 per patch corner

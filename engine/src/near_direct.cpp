@@ -1,0 +1,190 @@
+// Direct light on the surfaces right around a reported point, worked out where it lands.
+//
+// A patch's radiance is interpolated from its corners. Across a shadow edge that is off by the
+// whole step, and a point beside the patch sees the wrong part at a solid angle that does not
+// shrink with the patches: the foot of a box on a lit floor, where the box's shadow edge starts,
+// sees the floor beside it through patches lit on one side of that edge and dark on the other.
+// So a reported point gathers once more from the patches near it whose corners' direct light
+// differs a lot: the direct light they reflect, evaluated at each exactly integrated piece, minus
+// what interpolation gave it. One bounce of the difference, which the rest of the scene does not
+// see again, worked out only for the points asked for.
+//
+// Checked (test_module.py): a box's foot where its shadow edge starts gets the floor's light
+// through the lit wedge's form factor within 3% at three floor patch sizes, where interpolation
+// gave 0.83-1.28 of it. Against Cycles, the Cornell box's corners went from 2.77% to 1.6% RMS.
+#include "solver_impl.h"
+
+#include <algorithm>
+
+namespace radiosity {
+
+namespace {
+
+// A patch's direct light counts as well interpolated when its corners' differ by less than this
+// part of the brightest: a shadow edge across it is a step; falloff away from a lamp is smooth.
+constexpr double kContrast = 0.25;
+
+// Pieces of a cell near the point are split while nearer than this many of their radii, down to
+// pieces a little smaller than the point's height over them: the light changes within a cell (a
+// shadow edge starting at the point's foot), and a point a millimetre off the floor sees the
+// piece under it through half its view.
+constexpr double kSplitRadii = 4.0;
+constexpr int kSplitDepth = 16;
+
+double channel_sum(const dvec3& v) { return v.x + v.y + v.z; }
+
+}  // namespace
+
+// The difference one patch sends, as two shots of its cells cut as its shooter's shots cut them:
+// the interpolated direct light taken back, split as the solver split it (so it cancels what was
+// gathered), and the exact direct light at each piece, split finely. Far cells send nothing: from
+// afar interpolation holds.
+struct NearDetail {
+  Shot interpolated, exact;
+  bool step[2] = {false, false};  // per side: whether its corners' direct light differs enough
+  dvec3 reflectance{0.0};
+  PieceRadiance at_piece;
+};
+
+struct Solver::Impl::NearDirect {
+  std::vector<Source> sources;        // the direct light of the scene as it is
+  std::vector<CornerUnshot> scratch;  // zero but for the patch being cut into cells
+  std::unordered_map<int, NearDetail> detail;  // per patch near some point asked for
+  std::unordered_map<int, dvec3> gained;       // per point: what its front side gains
+};
+
+std::array<dvec3, 2> Solver::Impl::direct_at(const dvec3& y, const dvec3& normal) const {
+  // Gathered under an index past every receiving point: no patch takes it for one of its corners.
+  int slot = int(mesh.points.size());
+  std::array<dvec3, 2> h{dvec3(0.0), dvec3(0.0)};
+  OcclusionBatch batch(*vis, &h[0], &h[1], -1, slot);
+  for (const Source& s : near_direct->sources) s.gather(slot, {y, normal}, batch);
+  batch.flush();
+  return h;
+}
+
+const NearDetail* Solver::Impl::near_detail(int q) const {
+  NearDirect& nd = *near_direct;
+  auto [it, fresh] = nd.detail.try_emplace(q);
+  NearDetail& d = it->second;
+  if (!fresh) return d.interpolated.patches.empty() ? nullptr : &d;
+  const Patch& patch = mesh.patches[q];
+  const Material& m = material(q);
+  if (patch.area == 0 || !scene.meshes[patch.object].visible || m.reflectance == dvec3(0.0) ||
+      m.emission != dvec3(0.0))
+    return nullptr;
+  CornerUnshot& corners = nd.scratch[q];
+  for (int c = 0; c < 4; ++c) {
+    const ReceiverPoint& at = mesh.points[patch.point[c]];
+    std::array<dvec3, 2> h = direct_at(at.position, at.normal);
+    for (int s = 0; s < 2; ++s) corners[2 * c + s] = h[s];
+  }
+  for (int s = 0; s < 2; ++s) {
+    double hi = 0.0, lo = INFINITY;
+    for (int c = 0; c < 4; ++c) {
+      double h = channel_sum(corners[2 * c + s]);
+      hi = std::max(hi, h), lo = std::min(lo, h);
+    }
+    d.step[s] = hi - lo > kContrast * hi;
+  }
+  if (!d.step[0] && !d.step[1]) {
+    corners.fill(dvec3(0.0));
+    return nullptr;
+  }
+  for (int k = 0; k < 8; ++k) corners[k] = d.step[k % 2] ? -m.reflectance * corners[k] : dvec3(0.0);
+  Shot whole = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[patch_shooter[q]], nd.scratch,
+                            settings.samples_indirect, 1.0, settings.near_factor);
+  corners.fill(dvec3(0.0));
+  // The patch's own cells, as one leaf whose far cells send nothing.
+  Shot& leaf = d.interpolated;
+  leaf.near_factor = settings.near_factor;
+  for (size_t i = 0; i < whole.patches.size(); ++i) {
+    if (!std::equal(patch.point.begin(), patch.point.end(), whole.patches[i].point)) continue;
+    leaf.patches.push_back(whole.patches[i]);
+    for (const ShotCell& cell : whole.cells)
+      if (cell.patch == int(i)) {
+        leaf.cells.push_back(cell);
+        leaf.cells.back().patch = 0;
+        leaf.cells.back().radiance[0] = leaf.cells.back().radiance[1] = dvec3(0.0);
+      }
+  }
+  ShotElement element;
+  element.cell_end = int(leaf.cells.size());
+  leaf.elements.push_back(element);
+  leaf.frontier.push_back(0);
+  d.exact = leaf;
+  d.exact.split_radii = kSplitRadii;
+  d.exact.split_depth = kSplitDepth;
+  for (auto& corner : d.exact.patches[0].radiance) corner[0] = corner[1] = dvec3(0.0);
+  d.reflectance = m.reflectance;
+  d.at_piece = [this, &d](const dvec3& y, const dvec3& normal, int side) {
+    return d.step[side] ? d.reflectance * direct_at(y, normal)[side] : dvec3(0.0);
+  };
+  d.exact.patches[0].piece = &d.at_piece;
+  return &d;
+}
+
+void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
+  if (!settings.exact_near_direct || !injected) return;
+  if (!near_direct) {
+    near_direct = std::make_shared<NearDirect>();
+    near_direct->sources = direct_sources();
+    CornerUnshot none;
+    none.fill(dvec3(0.0));
+    near_direct->scratch.assign(mesh.patches.size(), none);
+  }
+  NearDirect& nd = *near_direct;
+  std::vector<int> wanted;
+  for (int i : points)
+    if (!hidden_point[i] && mesh.points[i].normal != dvec3(0.0) && nd.gained.try_emplace(i, dvec3(0.0)).second)
+      wanted.push_back(i);
+  int count = int(wanted.size());
+
+  // Per point, the patches whose sphere comes within near_factor of their radius of it. A node
+  // holds patches no wider than its diameter, so one farther than (3 + 2 near_factor) radii holds none.
+  double near = settings.near_factor;
+  std::vector<std::vector<int>> patches(count);
+#pragma omp parallel for schedule(dynamic, 16)
+  for (int k = 0; k < count; ++k) {
+    const dvec3& x = mesh.points[wanted[k]].position;
+    std::vector<int> stack(tree.roots.begin(), tree.roots.end());
+    while (!stack.empty()) {
+      const ClusterNode& n = tree.nodes[stack.back()];
+      stack.pop_back();
+      double d = glm::length(n.centroid - x);
+      if (n.left >= 0) {
+        if (d <= (3 + 2 * near) * n.radius) stack.push_back(n.left), stack.push_back(n.right);
+      } else if (d <= (1 + near) * n.radius) {
+        patches[k].push_back(tree.order[n.begin]);
+      }
+    }
+  }
+  // Cutting patches into cells fills the shot cache: one thread. Gathering only reads.
+  std::vector<std::vector<const NearDetail*>> details(count);
+  for (int k = 0; k < count; ++k)
+    for (int q : patches[k])
+      if (const NearDetail* d = near_detail(q)) details[k].push_back(d);
+  std::vector<dvec3> gained(count, dvec3(0.0));
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int k = 0; k < count; ++k) {
+    int i = wanted[k];
+    for (const NearDetail* d : details[k]) {
+      dvec3 h[2] = {dvec3(0.0), dvec3(0.0)};
+      OcclusionBatch batch(*vis, &h[0], &h[1], -1, i);
+      gather(d->interpolated, i, mesh.points[i], batch);
+      gather(d->exact, i, mesh.points[i], batch);
+      batch.flush();
+      gained[k] += h[0];
+    }
+  }
+  for (int k = 0; k < count; ++k) nd.gained[wanted[k]] = gained[k];
+}
+
+dvec3 Solver::Impl::near_direct_correction(int i) const {
+  prepare_near_direct({i});
+  if (!near_direct) return dvec3(0.0);
+  auto found = near_direct->gained.find(i);
+  return found == near_direct->gained.end() ? dvec3(0.0) : found->second;
+}
+
+}  // namespace radiosity
