@@ -10,7 +10,7 @@ For each sample .blend (the animated room at frames 1, 12 and 24) this writes
 tests/cycles_reference/<scene>[_fNNN].npz with Cycles' COMBINED bake (emission included), settings as
 in DESIGN.md section 4: no denoising, no adaptive sampling, no clamping, 64 diffuse/max bounces.
 
-Two layouts per mesh object, keyed by object name:
+Three layouts per mesh object, keyed by object name:
 
   "<name>:corner"   (K,3) float32  (at "samples_corner", 262,144 unless told: these few points
                     sit on junction lines where the noise is highest, and they are cheap; at 16,384
@@ -195,9 +195,9 @@ def inset_copy(ob, me, pick, fraction, lift):
     new_loop = np.full(len(lv), -1)
     new_loop[loops] = np.arange(len(loops))
     fsizes = sizes[faces]
+    fstarts = np.concatenate([[0], np.cumsum(fsizes)[:-1]])
     p = co[lv[loops]]
-    centroid = np.repeat(np.add.reduceat(p, np.concatenate([[0], np.cumsum(fsizes)[:-1]])) / fsizes[:, None],
-                         fsizes, axis=0)
+    centroid = np.repeat(np.add.reduceat(p, fstarts) / fsizes[:, None], fsizes, axis=0)
     fn = np.empty(len(sizes) * 3)
     me.polygons.foreach_get("normal", fn)
     # a normal transforms by the inverse transpose; the lift is measured in the world
@@ -218,7 +218,7 @@ def inset_copy(ob, me, pick, fraction, lift):
     cm.loops.add(len(p))
     cm.loops.foreach_set("vertex_index", np.arange(len(p), dtype=np.int32))
     cm.polygons.add(len(faces))
-    cm.polygons.foreach_set("loop_start", np.concatenate([[0], np.cumsum(fsizes)[:-1]]).astype(np.int32))
+    cm.polygons.foreach_set("loop_start", fstarts.astype(np.int32))
     cm.polygons.foreach_set("loop_total", fsizes.astype(np.int32))
     cm.polygons.foreach_set("material_index", mi[faces].astype(np.int32))
     cm.polygons.foreach_set("use_smooth", smooth[faces])
@@ -291,7 +291,7 @@ def run_scene(name, frame, samples, seed, samples_corner, fraction, only):
     if only != "inset":
         data.update({"samples": np.int32(samples), "frame": np.int32(sc.frame_current),
                      "blender_version": np.array(bpy.app.version_string),
-                     "layout": np.array(__doc__.split("Two layouts", 1)[1])})
+                     "layout": np.array(__doc__.split("Three layouts", 1)[1])})
         part, note = bake_corner(sc, meshes, samples_corner)
         data.update(part)
         notes.append(note)
