@@ -18,6 +18,25 @@ the floor's light is interpolated from patch corners a patch away, across the ed
 which Cycles resolves. A finer preset moves those corners, not always nearer (Cornell: worse at high).
 Tightening these bounds is the engine's work; do not loosen them without measuring.
 
+A second metric compares the same `Radiosity` corner values (our value at a corner stands for the
+face near it) with Cycles baked 0.5% of the way from each corner to its face's centroid
+(reference.corner_reference(..., inset=True); make_references.py: corner_inset). At a corner on a
+junction with another surface Cycles' own corner value is ill-posed (Cornell ShortBox's foot: 0.053
+at the corner, 0.072 a few millimetres up the face); at a room's concave corners, though, Cycles'
+value rises steadily into the face, so there the inset reference is the value 1-2 cm in and our
+corner values sit nearer the junction one. Both, same engine, 2 cores shared (solves 2-5x slower):
+
+    scene             default             high
+                      junction  inset     junction  inset
+    cornell_box        2.77%    2.59%      3.81%    3.75%
+    subsurf_room       2.21%    2.64%      2.15%    3.17%
+    animated_room@1    2.04%    3.25%      1.45%    3.07%
+    animated_room@12   2.72%    3.34%      1.46%    3.01%
+    animated_room@24   2.22%    3.36%      1.41%    3.17%
+
+INSET_BOUNDS are these plus a small margin, as BOUNDS. The test prints both per object and the five
+corners worst against the junction reference (run with -s).
+
 The default-preset runs take ~10-15 s each on 2 cores: only cornell_box and subsurf_room run by
 default; DR_SLOW=1 runs every scene and frame, and the high preset (minutes per scene).
 """
@@ -49,18 +68,34 @@ BOUNDS = {
     ("animated_room", 12, "HIGH"): 0.016,
     ("animated_room", 24, "HIGH"): 0.016,
 }
+# the same against the references a little inside the faces (make_references.py: corner_inset)
+INSET_BOUNDS = {
+    ("cornell_box", None, "DEFAULT"): 0.028,
+    ("subsurf_room", None, "DEFAULT"): 0.029,
+    ("animated_room", 1, "DEFAULT"): 0.035,
+    ("animated_room", 12, "DEFAULT"): 0.036,
+    ("animated_room", 24, "DEFAULT"): 0.036,
+    ("cornell_box", None, "HIGH"): 0.04,
+    ("subsurf_room", None, "HIGH"): 0.034,
+    ("animated_room", 1, "HIGH"): 0.033,
+    ("animated_room", 12, "HIGH"): 0.033,
+    ("animated_room", 24, "HIGH"): 0.034,
+}
+# reference kind -> corner_reference's inset: at the corner itself (ill-posed where it lies on a
+# junction with another surface), or a little inside its face
+REFERENCES = {"junction": False, "inset": True}
 FAST = {("cornell_box", None, "DEFAULT"), ("subsurf_room", None, "DEFAULT")}
 ISSUE_BOUND = {"DEFAULT": 0.02, "HIGH": 0.01}
 
 
-def scene_error(scene, ref):
-    """relative RMS over non-emitting corners, and per object."""
-    vals, refs, per = [], [], {}
+def scene_corners(scene, ref):
+    """The scene's non-emitting corners: object names, world positions, our values, and Cycles'
+    values by reference kind."""
+    names, pos, vals, refs = [], [], [], {kind: [] for kind in REFERENCES}
     for ob in scene.objects:
         if ob.type != 'MESH' or ob.hide_render:
             continue
         v = colours(ob)[:, :3]
-        r = ref[ob.name + ":corner"]
         mats = np.array([p.material_index for p in ob.data.polygons])
         sizes = np.array([p.loop_total for p in ob.data.polygons])
         slots = [s.material for s in ob.material_slots]
@@ -73,10 +108,22 @@ def scene_error(scene, ref):
         keep = ~np.repeat(emit, sizes)
         if not keep.any():
             continue
+        co = np.array([ob.matrix_world @ ob.data.vertices[lp.vertex_index].co for lp in ob.data.loops])
+        names += [ob.name] * int(keep.sum())
+        pos.append(co[keep])
         vals.append(v[keep])
-        refs.append(r[keep])
-        per[ob.name] = reference.relative_rms(v[keep], r[keep])
-    return reference.relative_rms(np.concatenate(vals), np.concatenate(refs)), per
+        for kind, inset in REFERENCES.items():
+            refs[kind].append(reference.corner_reference(ref, ob.name, inset)[keep])
+    return (np.array(names), np.concatenate(pos), np.concatenate(vals),
+            {kind: np.concatenate(r) for kind, r in refs.items()})
+
+
+def within(err, bounds, case):
+    """The issue's bound where it is met, else the measured one."""
+    bound = bounds.get(case, ISSUE_BOUND[case[2]])
+    if err <= ISSUE_BOUND[case[2]]:
+        bound = ISSUE_BOUND[case[2]]
+    return err <= bound
 
 
 CASES = [k for k in BOUNDS if SLOW or k in FAST]
@@ -92,11 +139,15 @@ def test_agreement_with_cycles(addon, case):
         scene.frame_set(frame)
     scene.radiosity.preset = preset
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
-    err, per = scene_error(scene, reference.load(name, frame))
-    print(f"\n{name}@{frame} {preset}: corner relative RMS {100 * err:.2f}% "
-          + " ".join(f"{k} {100 * v:.2f}%" for k, v in per.items())
-          + f"  ({scene.radiosity.last_seconds:.1f} s)")
-    bound = BOUNDS.get(case, ISSUE_BOUND[preset])
-    if err <= ISSUE_BOUND[preset]:
-        bound = ISSUE_BOUND[preset]
-    assert err <= bound
+    names, pos, v, refs = scene_corners(scene, reference.load(name, frame))
+    err = {}
+    for kind, r in refs.items():
+        err[kind] = reference.relative_rms(v, r)
+        print(f"\n{name}@{frame} {preset}: {kind} corner relative RMS {100 * err[kind]:.2f}% "
+              + " ".join(f"{n} {100 * reference.relative_rms(v, r, names == n):.2f}%" for n in np.unique(names)),
+              end="")
+    print(f"  ({scene.radiosity.last_seconds:.1f} s); worst corners against the junction reference:")
+    for i in np.argsort(-((v - refs["junction"]) ** 2).sum(1))[:5]:
+        print(f"  {names[i]} ({pos[i][0]:+.3f},{pos[i][1]:+.3f},{pos[i][2]:+.3f}) ours {v[i].mean():.4f} "
+              f"junction {refs['junction'][i].mean():.4f} inset {refs['inset'][i].mean():.4f}")
+    assert within(err["junction"], BOUNDS, case) and within(err["inset"], INSET_BOUNDS, case), err

@@ -2,7 +2,8 @@
 
     from reference import load, corner_reference, grid_positions, relative_rms
     ref = load("cornell_box")                 # or load("animated_room", frame=12)
-    err = relative_rms(engine_corner_values, ref["Room:corner"])
+    err = relative_rms(engine_corner_values, corner_reference(ref, "Room"))
+    err_inset = relative_rms(engine_corner_values, corner_reference(ref, "Room", inset=True))
 
 Layouts are documented in make_references.py.
 """
@@ -25,6 +26,16 @@ def load(scene, frame=None):
 
 def objects(ref):
     return sorted({k.split(":")[0] for k in ref if ":" in k})
+
+
+def corner_reference(ref, name, inset=False):
+    """(K,3) Cycles values at object name's cage corners, loop order: at the corners themselves, or
+    (inset) a little inside each corner's face, which a junction with another surface leaves
+    well-posed."""
+    key = name + (":corner_inset" if inset else ":corner")
+    if key not in ref:
+        raise KeyError(f"{key} is not in this file: bake it with make_references.py -- --inset-only")
+    return ref[key]
 
 
 def grid_positions(positions, face_vertices, n, transform=None):
