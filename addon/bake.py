@@ -55,6 +55,7 @@ def engine_settings(props, engine=None):
     s.patch_size_relative = float(props.patch_size_relative)
     s.threshold = float(props.threshold)
     s.relaxation = float(props.relaxation)
+    s.exact_near_direct = bool(props.exact_near_direct)
     return s
 
 
@@ -104,8 +105,8 @@ def effects_of(sx):
 # ----------------------------------------------------------------------------- incremental updates
 def settings_key(settings):
     """What must match for an engine Solver to be reused."""
-    return tuple(getattr(settings, k) for k in ("samples_direct", "samples_indirect", "patch_size_relative",
-                                                 "threshold", "relaxation"))
+    from .properties import KNOBS
+    return tuple(getattr(settings, k) for k in KNOBS)
 
 
 def _same(a, b):

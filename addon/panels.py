@@ -70,6 +70,7 @@ def draw_settings(layout, context):
     col.prop(props, "patch_size_relative")
     col.prop(props, "threshold")
     col.prop(props, "relaxation")
+    layout.prop(props, "exact_near_direct")
 
 
 def draw_results(layout, context):

@@ -3,7 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-KNOBS = ("samples_direct", "samples_indirect", "patch_size_relative", "threshold", "relaxation")
+KNOBS = ("samples_direct", "samples_indirect", "patch_size_relative", "threshold", "relaxation", "exact_near_direct")
 
 
 def preset_values(name):
@@ -42,6 +42,11 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
     relaxation: FloatProperty(
         name="Relaxation", default=1.3, min=1.0, max=1.95, precision=2,
         description="Over-relaxation of reflected light shots (1 = plain progressive refinement)")
+    exact_near_direct: BoolProperty(
+        name="Exact Contact Light", default=True,
+        description="Each corner evaluates the direct light of the surfaces right beside it where it "
+                    "lands instead of interpolating it: right at the foot of an object, where its "
+                    "shadow edge starts (off at Draft: it costs time on every update)")
     live_update: BoolProperty(
         name="Live Update", default=False,
         description="Update the lighting on frame change and while editing: only what changed is "

@@ -3,41 +3,32 @@
 Metric (the issue's): relative RMS (reference.relative_rms: sqrt(mean |v - r|^2) / mean(r), all
 channels) over every non-emitting face corner of the scene, i.e. the values a user sees.
 The issue asks for 2% (default preset) and 1% (high). Measured on this machine (engine of 2026-12-01,
-near cells lit where the receiver sees them; references' corners at 262,144 spp, ~0.2% noise):
+contact light evaluated where it lands; references' corners at 262,144 spp, ~0.2% noise; bake times
+with the two cores shared by other jobs, 2-3x slower than alone), junction / inset metric:
 
-    scene             default (solve)   high (solve)
-    cornell_box        2.77%  (6 s)      3.81%  (38 s)
-    subsurf_room       2.20%  (10 s)     2.14%  (73 s)
-    animated_room@1    2.04%  (14 s)     1.45%  (166 s)
-    animated_room@12   2.72%  (15 s)     1.46%  (118 s)
-    animated_room@24   2.22%  (11 s)     1.41%  (108 s)
+    scene             default                    high
+    cornell_box        1.64% / 1.95%  (16 s)      1.49% / 1.96%  (102 s)
+    subsurf_room       2.10% / 2.62%  (40 s)      2.07% / 3.11%  (174 s)
+    animated_room@1    1.55% / 2.96%  (35 s)      1.18% / 2.96%  (252 s)
+    animated_room@12   1.78% / 2.80%  (39 s)      1.26% / 2.85%  (271 s)
+    animated_room@24   1.76% / 3.10%  (38 s)      1.21% / 3.08%  (279 s)
 
-The bounds below are these plus a small margin, NOT the issue's 2% / 1% where those are not met.
-What is left sits at the feet of the boxes: the floor's patches run under a box, and near its foot
-the floor's light is interpolated from patch corners a patch away, across the edge of its shadow,
-which Cycles resolves. A finer preset moves those corners, not always nearer (Cornell: worse at high).
-Tightening these bounds is the engine's work; do not loosen them without measuring.
+Before contact light was evaluated where it lands (interpolated across the boxes' shadow edges) the
+junction metric was 2.77 / 2.20 / 2.04-2.72% at default and 3.81 / 2.14 / 1.41-1.46% at high.
+The bounds below are these plus a small margin, NOT the issue's 2% / 1% where those are not met
+(subsurf room at default; every scene at high). Tightening them is the engine's work; do not loosen
+them without measuring.
 
-A second metric compares the same `Radiosity` corner values (our value at a corner stands for the
+The inset metric compares the same `Radiosity` corner values (our value at a corner stands for the
 face near it) with Cycles baked 0.5% of the way from each corner to its face's centroid
 (reference.corner_reference(..., inset=True); make_references.py: corner_inset). At a corner on a
 junction with another surface Cycles' own corner value is ill-posed (Cornell ShortBox's foot: 0.053
 at the corner, 0.072 a few millimetres up the face); at a room's concave corners, though, Cycles'
 value rises steadily into the face, so there the inset reference is the value 1-2 cm in and our
-corner values sit nearer the junction one. Both, same engine, 2 cores shared (solves 2-5x slower):
+corner values sit nearer the junction one (Room: 0.8-2.7% junction, 3.1-5.2% inset). The test
+prints both per object and the five corners worst against the junction reference (run with -s).
 
-    scene             default             high
-                      junction  inset     junction  inset
-    cornell_box        2.77%    2.59%      3.81%    3.75%
-    subsurf_room       2.21%    2.64%      2.15%    3.17%
-    animated_room@1    2.04%    3.25%      1.45%    3.07%
-    animated_room@12   2.72%    3.34%      1.46%    3.01%
-    animated_room@24   2.22%    3.36%      1.41%    3.17%
-
-INSET_BOUNDS are these plus a small margin, as BOUNDS. The test prints both per object and the five
-corners worst against the junction reference (run with -s).
-
-The default-preset runs take ~10-15 s each on 2 cores: only cornell_box and subsurf_room run by
+The default-preset runs take ~10-20 s each on 2 cores: only cornell_box and subsurf_room run by
 default; DR_SLOW=1 runs every scene and frame, and the high preset (minutes per scene).
 """
 import os
@@ -57,28 +48,28 @@ SLOW = os.environ.get("DR_SLOW") == "1"
 
 # (scene, frame, preset) -> relative RMS bound (measured + margin)
 BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.03,
-    ("subsurf_room", None, "DEFAULT"): 0.025,
-    ("animated_room", 1, "DEFAULT"): 0.023,
-    ("animated_room", 12, "DEFAULT"): 0.03,
-    ("animated_room", 24, "DEFAULT"): 0.025,
-    ("cornell_box", None, "HIGH"): 0.041,
-    ("subsurf_room", None, "HIGH"): 0.024,
-    ("animated_room", 1, "HIGH"): 0.016,
-    ("animated_room", 12, "HIGH"): 0.016,
-    ("animated_room", 24, "HIGH"): 0.016,
+    ("cornell_box", None, "DEFAULT"): 0.019,
+    ("subsurf_room", None, "DEFAULT"): 0.024,
+    ("animated_room", 1, "DEFAULT"): 0.018,
+    ("animated_room", 12, "DEFAULT"): 0.02,
+    ("animated_room", 24, "DEFAULT"): 0.02,
+    ("cornell_box", None, "HIGH"): 0.017,
+    ("subsurf_room", None, "HIGH"): 0.023,
+    ("animated_room", 1, "HIGH"): 0.014,
+    ("animated_room", 12, "HIGH"): 0.015,
+    ("animated_room", 24, "HIGH"): 0.014,
 }
 # the same against the references a little inside the faces (make_references.py: corner_inset)
 INSET_BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.028,
+    ("cornell_box", None, "DEFAULT"): 0.022,
     ("subsurf_room", None, "DEFAULT"): 0.029,
-    ("animated_room", 1, "DEFAULT"): 0.035,
-    ("animated_room", 12, "DEFAULT"): 0.036,
-    ("animated_room", 24, "DEFAULT"): 0.036,
-    ("cornell_box", None, "HIGH"): 0.04,
+    ("animated_room", 1, "DEFAULT"): 0.032,
+    ("animated_room", 12, "DEFAULT"): 0.031,
+    ("animated_room", 24, "DEFAULT"): 0.034,
+    ("cornell_box", None, "HIGH"): 0.022,
     ("subsurf_room", None, "HIGH"): 0.034,
-    ("animated_room", 1, "HIGH"): 0.033,
-    ("animated_room", 12, "HIGH"): 0.033,
+    ("animated_room", 1, "HIGH"): 0.032,
+    ("animated_room", 12, "HIGH"): 0.031,
     ("animated_room", 24, "HIGH"): 0.034,
 }
 # reference kind -> corner_reference's inset: at the corner itself (ill-posed where it lies on a
