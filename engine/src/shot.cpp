@@ -277,7 +277,6 @@ void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centr
   batch.to_point(receiver, x, n, target, normal, cos_r > 0, rad * factor, lift);
 }
 
-
 // What lights the pieces of one cell near a receiver: its patch, the side facing the receiver, and
 // the patch corners that light the part of the cell in front of the receiver's plane and the part
 // behind it.
