@@ -33,6 +33,7 @@ struct ShotBuilder {
   double scale;
   int cells_per_side;
   Shot& shot;
+  std::vector<Cell> cells;  // of the patch being added, kept to spare an allocation per patch
 
   bool sees(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, int side) const {
     return !vis || (side == 0 ? vis->connected(a, na, b, nb) : vis->connected(a, -na, b, -nb));
@@ -117,7 +118,7 @@ struct ShotBuilder {
       // ending on the patch short of that could end behind the triangles and count as blocked.
       dvec3 twist = light.corner[0] - light.corner[1] + light.corner[2] - light.corner[3];
       light.lift = 0.25 * std::fabs(glm::dot(twist, patch.normal));
-      std::vector<Cell> cells(k * k);
+      cells.resize(k * k);
       bilinear_cells(light.corner, k, cells.data());
       const std::vector<uint8_t>* seen[2] = {nullptr, nullptr};  // per cell, a bit per corner it sees
       for (int s = 0; s < 2; ++s) {
@@ -192,8 +193,13 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
 
   Shot shot;
   shot.near_factor = near_factor;
+  // Sized up front: growing them copied every element and cell already built, several times a shot.
+  const ClusterNode& root = tree.nodes[node];
+  shot.elements.reserve(2 * (root.end - root.begin) - 1);
+  shot.patches.reserve(root.end - root.begin);
+  shot.cells.reserve(size_t(root.end - root.begin) * cells_per_side * cells_per_side);
   ShotCache local;  // without a cache to keep, work it out for this shot alone
-  ShotBuilder builder{mesh, tree, vis, cache ? cache : &local, unshot, scale, cells_per_side, shot};
+  ShotBuilder builder{mesh, tree, vis, cache ? cache : &local, unshot, scale, cells_per_side, shot, {}};
   builder.copy(node);
   // Walk the subtree and its copy together to turn the frontier's clusters into elements.
   std::sort(frontier.begin(), frontier.end());
