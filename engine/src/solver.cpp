@@ -55,26 +55,21 @@ void Solver::Impl::mark_hidden(int object) {
 }
 
 void Solver::Impl::apply_delta() {
-  // Every shot ends here while the other threads wait: one parallel region for both loops, as soon
-  // as a gather itself goes parallel.
   int points = int(mesh.points.size());
+#pragma omp parallel for schedule(static) if (points > 16 * kParallelMinimum)
+  for (int i = 0; i < points; ++i) {
+    front[i] += delta_front[i];
+    back[i] += delta_back[i];
+  }
   int patches = int(mesh.patches.size());
-#pragma omp parallel if (points > kParallelMinimum)
-  {
-#pragma omp for schedule(static) nowait
-    for (int i = 0; i < points; ++i) {
-      front[i] += delta_front[i];
-      back[i] += delta_back[i];
-    }
-#pragma omp for schedule(static)
-    for (int p = 0; p < patches; ++p) {
-      const Patch& patch = mesh.patches[p];
-      if (patch.area == 0) continue;
-      const dvec3& rho = material(p).reflectance;
-      for (int c = 0; c < 4; ++c) {
-        unshot[p][c * 2 + 0] += rho * delta_front[patch.point[c]];
-        unshot[p][c * 2 + 1] += rho * delta_back[patch.point[c]];
-      }
+#pragma omp parallel for schedule(static) if (patches > 16 * kParallelMinimum)
+  for (int p = 0; p < patches; ++p) {
+    const Patch& patch = mesh.patches[p];
+    if (patch.area == 0) continue;
+    const dvec3& rho = material(p).reflectance;
+    for (int c = 0; c < 4; ++c) {
+      unshot[p][c * 2 + 0] += rho * delta_front[patch.point[c]];
+      unshot[p][c * 2 + 1] += rho * delta_back[patch.point[c]];
     }
   }
 }
@@ -145,18 +140,12 @@ bool Solver::Impl::inject() {
 }
 
 std::vector<double> Solver::Impl::shooter_power() const {
-  // Each patch's power on all cores (it runs before every shot, while the other threads wait); the
-  // sums per shooter in patch order, as one thread would add them.
-  int patches = int(mesh.patches.size());
-  std::vector<double> patch_power(patches);
-#pragma omp parallel for schedule(static) if (patches > kParallelMinimum)
-  for (int p = 0; p < patches; ++p) {
+  std::vector<double> power(shooters.size(), 0.0);
+  for (size_t p = 0; p < mesh.patches.size(); ++p) {
     double sum = 0.0;
     for (const dvec3& u : unshot[p]) sum += abs_sum(u);
-    patch_power[p] = 0.25 * mesh.patches[p].area * sum;
+    power[patch_shooter[p]] += 0.25 * mesh.patches[p].area * sum;
   }
-  std::vector<double> power(shooters.size(), 0.0);
-  for (int p = 0; p < patches; ++p) power[patch_shooter[p]] += patch_power[p];
   return power;
 }
 
