@@ -111,11 +111,14 @@ void area_moments(Cell& c) {
   c.reach = 0.0;
   for (const dvec3& p : q) c.reach = std::fmax(c.reach, glm::length(p - offset));
   if (!(area > 0)) {
-    c.spread = glm::dmat3(0.0);
+    c.spread = Symmetric3();
     return;
   }
   glm::dmat3 flat = glm::dmat3(1.0) - glm::outerProduct(c.normal, c.normal);
-  c.spread = flat * (second / area - glm::outerProduct(offset, offset)) * flat;
+  glm::dmat3 m = flat * (second / area - glm::outerProduct(offset, offset)) * flat;
+  // Symmetric up to round-off: each pair's mean keeps it so.
+  c.spread = {m[0][0], m[1][1], m[2][2],
+              0.5 * (m[0][1] + m[1][0]), 0.5 * (m[0][2] + m[2][0]), 0.5 * (m[1][2] + m[2][1])};
 }
 
 void bilinear_cells(const dvec3 p[4], int k, Cell* out) {

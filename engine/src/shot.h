@@ -28,12 +28,12 @@ using PieceRadiance = std::function<dvec3(const dvec3& y, const dvec3& m, int si
 
 // A shooting patch (or area lamp quad): its corners and the radiance it sends from each, per side.
 // Near a receiver its cells are integrated piece by piece, each piece lit by interpolation there,
-// plus `piece` at the piece where given.
+// plus `piece` at the piece where given. First what every visit to one of its cells reads, near or far.
 struct ShotPatch {
-  dvec3 corner[4];
-  dvec3 radiance[4][2];              // [corner][side], side 0 = front
   int point[4] = {-1, -1, -1, -1};   // receiving points at the corners (none for lamps)
   double lift = 0.0;  // how far its bilinear surface may lie off the two triangles Embree traces
+  dvec3 corner[4];
+  dvec3 radiance[4][2];              // [corner][side], side 0 = front
   const PieceRadiance* piece = nullptr;
 };
 
@@ -45,14 +45,16 @@ struct ShotCell {
   uint8_t seen[2] = {15, 15};                    // a bit per patch corner its centre sees, per side
 };
 
+// In the order a receiver's walk reads it: whether to descend, then what a far sample sends.
 struct ShotElement {
-  dvec3 centroid{0.0}, anchor{0.0}, normal{0.0};
-  double projected_area = 0.0;  // |vector area|: cos-weighted area is projected_area * |cos|
-  double radius = 0.0;
-  bool flat = false;
-  dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
   int left = -1, right = -1;    // children (elements) for clusters
   int cell_begin = 0, cell_end = 0;  // cells for patches (leaves)
+  bool flat = false;
+  double radius = 0.0;
+  dvec3 centroid{0.0}, normal{0.0};
+  double projected_area = 0.0;  // |vector area|: cos-weighted area is projected_area * |cos|
+  dvec3 anchor{0.0};
+  dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
 };
 
 struct Shot {

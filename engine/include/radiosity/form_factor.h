@@ -22,6 +22,15 @@ struct SideFactors {
   double back = 0.0;
 };
 
+// A symmetric 3 x 3 matrix: six numbers where a dmat3 holds nine.
+struct Symmetric3 {
+  double xx = 0, yy = 0, zz = 0, xy = 0, xz = 0, yz = 0;
+  dvec3 operator*(const dvec3& v) const {
+    return dvec3(xx * v.x + xy * v.y + xz * v.z, xy * v.x + yy * v.y + yz * v.z, xz * v.x + yz * v.y + zz * v.z);
+  }
+  double trace() const { return xx + yy + zz; }
+};
+
 // A planar-enough quadrilateral piece of a shooter with its sample point at the centre.
 // What a distant receiver reads comes first, the corners last: most cells a receiver visits are far.
 struct Cell {
@@ -30,7 +39,7 @@ struct Cell {
   double area;
   double radius;      // largest centre-to-corner distance
   double reach;       // largest centroid-to-corner distance
-  glm::dmat3 spread;  // second moment of its area about the centroid, per unit area
+  Symmetric3 spread;  // second moment of its area about the centroid, per unit area
   dvec3 centre;       // of its square in the patch's (u, v): where rays aim
   dvec3 corners[4];
 };
@@ -67,7 +76,7 @@ inline std::optional<double> distant_cell_form_factor(const Cell& cell, const dv
   // order, A (K + tr(H M) / 2) with H its Hessian; M lies in the cell's plane, where g is constant.
   // One division serves all the terms.
   dvec3 md = cell.spread * d;
-  double trace = cell.spread[0][0] + cell.spread[1][1] + cell.spread[2][2];
+  double trace = cell.spread.trace();
   double inv = 1.0 / (f * r2 * r2);
   double correction = 1 - 2 * trace * f * r2 * inv + 12 * glm::dot(d, md) * f * inv - 4 * glm::dot(n, md) * r2 * inv;
   return std::fabs(f * f * g * inv) * cell.area * correction / kPi;
