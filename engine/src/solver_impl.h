@@ -25,6 +25,8 @@ namespace radiosity {
 
 constexpr int kParallelMinimum = 256;  // receiving points worth a second thread
 
+struct NearDetail;  // near_direct.cpp
+
 struct Solver::Impl {
   SceneDesc scene;
   Settings settings;
@@ -113,7 +115,7 @@ struct Solver::Impl {
   mutable std::shared_ptr<NearDirect> near_direct;  // shared_ptr: NearDirect is complete only there
   dvec3 near_direct_correction(int point) const;
   void prepare_near_direct(const std::vector<int>& points) const;  // for many points, on all cores
-  const struct NearDetail* near_detail(int patch) const;  // null if it needs none
+  const NearDetail* near_detail(int patch) const;  // null if it needs none
   std::array<dvec3, 2> direct_at(const dvec3& y, const dvec3& normal) const;  // H per side
 };
 
