@@ -11,7 +11,6 @@ namespace radiosity {
 
 namespace {
 
-double channel_sum(const dvec3& v) { return v.x + v.y + v.z; }
 double abs_sum(const dvec3& v) { return std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z); }
 constexpr double kProgressInterval = 0.05;  // seconds between progress callbacks
 

@@ -25,6 +25,8 @@ namespace radiosity {
 
 constexpr int kParallelMinimum = 256;  // receiving points worth a second thread
 
+inline double channel_sum(const dvec3& v) { return v.x + v.y + v.z; }
+
 struct NearDetail;  // near_direct.cpp
 
 struct Solver::Impl {
