@@ -158,7 +158,7 @@ void Solver::Impl::change_material(int index, const Material& m) {
     }
   }
   // Emitted light: the difference, shot like all emission.
-  std::vector<Source> sources = patch_sources(emitted, settings.samples_direct, 1.0, nullptr);
+  std::vector<Source> sources = patch_sources(emitted, false, settings.samples_direct, 1.0, nullptr);
   if (!sources.empty()) gather_direct_change(sources);
 }
 

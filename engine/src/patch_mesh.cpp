@@ -83,6 +83,19 @@ std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const Refin
   return corner_normals;
 }
 
+// The part of a cosine-weighted hemisphere about `shading` (a corner's normal) that lies above the
+// plane of patch corner `c` and its two edges: (1 + cos tilt) / 2. Cycles' diffuse BSDF samples
+// about the shading normal and drops what falls under the facet it shades (bsdf_diffuse_sample),
+// so a smooth-shaded facet's corner reflects only that part of the light coming from around it
+// (taken as uniform). Exactly 1 where the patch's own normal shades the corner (flat objects).
+double facet_share(const PatchMesh& pm, const Patch& patch, int c, const dvec3& shading) {
+  if (shading == patch.normal) return 1.0;
+  const dvec3& at = pm.vertices[patch.vertex[c]];
+  dvec3 facet = glm::cross(pm.vertices[patch.vertex[(c + 1) % 4]] - at, pm.vertices[patch.vertex[(c + 3) % 4]] - at);
+  double length = glm::length(facet);
+  return length > 0 ? 0.5 * (1.0 + std::clamp(glm::dot(facet, shading) / length, -1.0, 1.0)) : 1.0;
+}
+
 // Puts points [begin, end) at their vertices, facing the way their first corner faces, nudged
 // towards the centres of their patches. `corner_normal[slot - first_slot]` is a corner's normal.
 void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int begin, int end) {
@@ -92,11 +105,16 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
     rp.position = pm.vertices[pm.patches[first / 4].vertex[first % 4]];
     rp.normal = corner_normal[first - first_slot];
     dvec3 centre_sum(0.0);
+    double share_sum = 0.0;
     int count = 0;
     for (int i = pm.point_slot_begin[p]; i < pm.point_slot_begin[p + 1]; ++i) {
-      const Patch& patch = pm.patches[pm.point_slots[i] / 4];
-      if (patch.area > 0) centre_sum += patch.centre, ++count;
+      int slot = pm.point_slots[i];
+      const Patch& patch = pm.patches[slot / 4];
+      if (patch.area == 0) continue;
+      centre_sum += patch.centre, ++count;
+      share_sum += facet_share(pm, patch, slot % 4, corner_normal[slot - first_slot]);
     }
+    rp.reflected_share = count > 0 ? share_sum / count : 1.0;
     if (count == 0) continue;
     // Along the tangent plane only: on a curved surface the patch centres lie below it, and a
     // point moved towards them would sit inside the tessellated surface, shadowed by itself.

@@ -425,6 +425,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
   const dvec3& n = point.normal;
   int stack[128];
   int top = 0;
+  if (shot.reflected) batch.set_share(point.reflected_share);
   for (int f : shot.frontier) {
     stack[top++] = f;
     while (top > 0) {
@@ -454,6 +455,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
       stack[top++] = e.left;
     }
   }
+  batch.set_share(1.0);
 }
 
 }  // namespace radiosity

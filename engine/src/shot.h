@@ -68,6 +68,8 @@ struct Shot {
   // of near_direct.cpp does.
   double split_radii = 2.0;
   int split_depth = 3;
+  // Light that surfaces reflected (not emitted): a receiver takes its reflected_share of it.
+  bool reflected = false;
 };
 
 // What shot samples see of their own shooter, per side: cell centre to patch corners (a bit each),

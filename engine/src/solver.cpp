@@ -73,8 +73,8 @@ void Solver::Impl::apply_delta() {
   }
 }
 
-std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>& radiance, int samples,
-                                                 double scale, const std::vector<char>* only) const {
+std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>& radiance, bool reflected,
+                                                 int samples, double scale, const std::vector<char>* only) const {
   std::vector<Source> out;
   for (size_t s = 0; s < shooters.size(); ++s) {
     if (only && !(*only)[s]) continue;
@@ -83,10 +83,10 @@ std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>&
     bool any = false;
     for (int i = n.begin; i < n.end && !any; ++i)
       for (const dvec3& v : radiance[tree.order[i]]) any |= abs_sum(v) > 0;
-    if (any)
-      out.push_back(shot_source(cluster_shot(mesh, tree, vis.get(), &shot_cache, node, radiance, samples, scale,
-                                             settings.near_factor),
-                                int(s), {n.centroid, n.radius}));
+    if (!any) continue;
+    Shot shot = cluster_shot(mesh, tree, vis.get(), &shot_cache, node, radiance, samples, scale, settings.near_factor);
+    shot.reflected = reflected;
+    out.push_back(shot_source(std::move(shot), int(s), {n.centroid, n.radius}));
   }
   return out;
 }
@@ -108,12 +108,12 @@ std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector
     emission[p].fill(mesh.patches[p].area > 0 && scene.meshes[mesh.patches[p].object].visible
                          ? material(int(p)).emission
                          : dvec3(0.0));
-  for (Source& s : patch_sources(emission, settings.samples_direct, scale, only)) out.push_back(std::move(s));
+  for (Source& s : patch_sources(emission, false, settings.samples_direct, scale, only)) out.push_back(std::move(s));
   return out;
 }
 
 std::vector<Source> Solver::Impl::reflected_sources(double scale, const std::vector<char>* only) const {
-  return patch_sources(shot, settings.samples_indirect, scale, only);
+  return patch_sources(shot, true, settings.samples_indirect, scale, only);
 }
 
 double Solver::Impl::landed_power() const {
@@ -152,6 +152,7 @@ bool Solver::Impl::shoot(int s) {
   double omega = settings.relaxation;
   Shot sent = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[s], unshot, settings.samples_indirect, omega,
                            settings.near_factor);
+  sent.reflected = true;
   if (!gather_all([&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }))
     return false;
   const ClusterNode& n = tree.nodes[shooters[s]];

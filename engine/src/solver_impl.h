@@ -87,9 +87,9 @@ struct Solver::Impl {
   std::vector<Source> direct_sources(double scale = 1.0, const std::vector<char>* only = nullptr) const;
   // Reflected: what each shooter has sent so far (`shot`), through the geometry as it is now.
   std::vector<Source> reflected_sources(double scale = 1.0, const std::vector<char>* only = nullptr) const;
-  // Shots of per-patch radiance `radiance` from the shooters where it is not zero.
-  std::vector<Source> patch_sources(const std::vector<CornerUnshot>& radiance, int samples, double scale,
-                                    const std::vector<char>* only) const;
+  // Shots of per-patch radiance `radiance` (emitted, or `reflected`) from the shooters where it is not zero.
+  std::vector<Source> patch_sources(const std::vector<CornerUnshot>& radiance, bool reflected, int samples,
+                                    double scale, const std::vector<char>* only) const;
 
   bool inject();
   std::vector<double> shooter_power() const;

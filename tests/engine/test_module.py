@@ -232,6 +232,42 @@ def curved_furnace(rho, level=3):
     return solver.refined(obj)[1]
 
 
+def test_smooth_shaded_corners_take_the_light_cycles_facets_let_in():
+    # Cycles' diffuse BSDF samples about the shading normal and drops what falls under the facet it
+    # shades (bsdf_diffuse_sample), so a smooth-shaded corner reflects only (1 + cos tilt) / 2 of the
+    # light reflected towards it from all round. A small Catmull-Clark cube in a furnace (every
+    # surface emits E and reflects rho): its corners' limit normals lie along the diagonals; each
+    # sees only the box, whose radiance B is E emitted, taken whole, and B - E reflected, taken in part.
+    # (B is the box's solved value, 10.03 here: E / (1 - rho) = 10 holds to 0.3-0.8% with a small
+    # cube inside, curved or flat, at rho = 0.9.)
+    rho, e = 0.9, 1.0
+    scene = engine.Scene()
+    m = scene.add_material((rho,) * 3, (e,) * 3)
+    box, cube = Mesh(), Mesh()
+    box.add_box((0, 0, 0), (2, 2, 2), m, inward=True)
+    walls = box.add_to(scene)
+    cube.add_box((0, 0, 0), (0.1, 0.1, 0.1), m)
+    obj = cube.weld().add_to(scene, refine="catmull_clark", level=1)
+    settings = engine.Settings.preset("default")
+    settings.threshold = 1e-5
+    solver = engine.Solver(scene, settings)
+    assert solver.solve()["converged"]
+    positions, radiance = solver.refined(obj)
+    quads = positions.reshape(-1, 4, 3)
+    at_corner = np.abs(quads).sum(2) > 0.999 * np.abs(quads).sum(2).max()   # the 8 limit corners
+    shares = []
+    for q, c in zip(*np.nonzero(at_corner)):
+        at = quads[q, c]
+        facet = np.cross(quads[q, (c + 1) % 4] - at, quads[q, (c + 3) % 4] - at)
+        shares.append((1 + facet @ np.sign(at) / np.linalg.norm(facet) / math.sqrt(3)) / 2)
+    assert len(shares) == 24 and np.ptp(shares) < 1e-9
+    b = solver.refined(walls)[1].mean()
+    expected = e + rho * (e + shares[0] * (b - e))
+    assert 1 - expected / b > 0.05                                        # 0.92 of the reflected light
+    got = radiance.reshape(-1, 4, 3)[at_corner]
+    assert np.abs(got / expected - 1).max() < 1e-3
+
+
 def test_rays_reach_a_twisted_patch():
     # Nearly no reflection: B - E is rho times the light gathered from the whole surface, which a
     # point inside sees all of but the 1% its own patches make. Rays ending on a twisted patch short
