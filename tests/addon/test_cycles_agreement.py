@@ -8,16 +8,23 @@ with the two cores shared by other jobs, 2-3x slower than alone), junction / ins
 
     scene             default                    high
     cornell_box        1.64% / 1.95%  (16 s)      1.49% / 1.96%  (102 s)
-    subsurf_room       2.10% / 2.62%  (40 s)      2.07% / 3.11%  (174 s)
+    subsurf_room       1.84% / 2.43%  (9 s)       1.66% / not run (170 s) (2.10 / 2.62, 2.07 / 3.11
+                                                                          before smooth-shaded corners
+                                                                          took Cycles' facet share)
     animated_room@1    1.55% / 2.96%  (35 s)      1.18% / 2.96%  (252 s)
     animated_room@12   1.78% / 2.80%  (39 s)      1.26% / 2.85%  (271 s)
     animated_room@24   1.76% / 3.10%  (38 s)      1.21% / 3.08%  (279 s)
 
 Before contact light was evaluated where it lands (interpolated across the boxes' shadow edges) the
 junction metric was 2.77 / 2.20 / 2.04-2.72% at default and 3.81 / 2.14 / 1.41-1.46% at high.
-The bounds below are these plus a small margin, NOT the issue's 2% / 1% where those are not met
-(subsurf room at default; every scene at high). Tightening them is the engine's work; do not loosen
-them without measuring.
+Off junctions (reference.on_junction: corners on another surface that rises in front of theirs,
+a room's corners, a box's feet), where Cycles' own corner value is well-posed, default gives
+0.98% (Cornell box, 40 of 88 corners), 1.45% (subsurf room, 36 of 68: the Blob's corners, whose
+three Cycles values differ by up to 1.4% between faces) and 2.18% (animated room @1, 12 of 44: the
+box's face towards the near wall, 4-5% dark; near_factor 6 takes it to 1.03%).
+
+The bounds below are these plus a small margin, NOT the issue's 1% at high, which is not met.
+Tightening them is the engine's work; do not loosen them without measuring.
 
 The inset metric compares the same `Radiosity` corner values (our value at a corner stands for the
 face near it) with Cycles baked 0.5% of the way from each corner to its face's centroid
@@ -49,12 +56,12 @@ SLOW = os.environ.get("DR_SLOW") == "1"
 # (scene, frame, preset) -> relative RMS bound (measured + margin)
 BOUNDS = {
     ("cornell_box", None, "DEFAULT"): 0.019,
-    ("subsurf_room", None, "DEFAULT"): 0.024,
+    ("subsurf_room", None, "DEFAULT"): 0.02,
     ("animated_room", 1, "DEFAULT"): 0.018,
     ("animated_room", 12, "DEFAULT"): 0.02,
     ("animated_room", 24, "DEFAULT"): 0.02,
     ("cornell_box", None, "HIGH"): 0.017,
-    ("subsurf_room", None, "HIGH"): 0.023,
+    ("subsurf_room", None, "HIGH"): 0.018,
     ("animated_room", 1, "HIGH"): 0.014,
     ("animated_room", 12, "HIGH"): 0.015,
     ("animated_room", 24, "HIGH"): 0.014,
@@ -62,7 +69,7 @@ BOUNDS = {
 # the same against the references a little inside the faces (make_references.py: corner_inset)
 INSET_BOUNDS = {
     ("cornell_box", None, "DEFAULT"): 0.022,
-    ("subsurf_room", None, "DEFAULT"): 0.029,
+    ("subsurf_room", None, "DEFAULT"): 0.026,
     ("animated_room", 1, "DEFAULT"): 0.032,
     ("animated_room", 12, "DEFAULT"): 0.031,
     ("animated_room", 24, "DEFAULT"): 0.034,
@@ -72,6 +79,13 @@ INSET_BOUNDS = {
     ("animated_room", 12, "HIGH"): 0.031,
     ("animated_room", 24, "HIGH"): 0.034,
 }
+# the same over the corners off junctions (reference.on_junction), where Cycles' corner is
+# well-posed; checked where measured (others print it)
+OPEN_BOUNDS = {
+    ("cornell_box", None, "DEFAULT"): 0.011,
+    ("subsurf_room", None, "DEFAULT"): 0.016,
+    ("animated_room", 1, "DEFAULT"): 0.024,
+}
 # reference kind -> corner_reference's inset: at the corner itself (ill-posed where it lies on a
 # junction with another surface), or a little inside its face
 REFERENCES = {"junction": False, "inset": True}
@@ -79,13 +93,35 @@ FAST = {("cornell_box", None, "DEFAULT"), ("subsurf_room", None, "DEFAULT")}
 ISSUE_BOUND = {"DEFAULT": 0.02, "HIGH": 0.01}
 
 
+def world_faces(ob):
+    """(positions (V,3), corner normals (L,3), faces as (n,3) arrays) of a mesh's cage, world space."""
+    me = ob.data
+    M = np.array(ob.matrix_world)
+    co = np.empty(3 * len(me.vertices))
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3) @ M[:3, :3].T + M[:3, 3]
+    fn = np.empty(3 * len(me.polygons))
+    me.polygons.foreach_get("normal", fn)
+    fn = fn.reshape(-1, 3) @ np.linalg.inv(M[:3, :3])     # normals go by the inverse transpose
+    fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+    sizes = np.empty(len(me.polygons), np.int32)
+    me.polygons.foreach_get("loop_total", sizes)
+    lv = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", lv)
+    faces = np.split(co[lv], np.cumsum(sizes)[:-1])
+    return co[lv], np.repeat(fn, sizes, 0), faces
+
+
 def scene_corners(scene, ref):
-    """The scene's non-emitting corners: object names, world positions, our values, and Cycles'
-    values by reference kind."""
-    names, pos, vals, refs = [], [], [], {kind: [] for kind in REFERENCES}
+    """The scene's non-emitting corners: object names, world positions, our values, Cycles' values
+    by reference kind, and whether each lies on a junction (reference.on_junction)."""
+    names, pos, nrm, vals, refs = [], [], [], [], {kind: [] for kind in REFERENCES}
+    faces = []
     for ob in scene.objects:
         if ob.type != 'MESH' or ob.hide_render:
             continue
+        co, normals, f = world_faces(ob)
+        faces += f
         v = colours(ob)[:, :3]
         mats = np.array([p.material_index for p in ob.data.polygons])
         sizes = np.array([p.loop_total for p in ob.data.polygons])
@@ -99,14 +135,15 @@ def scene_corners(scene, ref):
         keep = ~np.repeat(emit, sizes)
         if not keep.any():
             continue
-        co = np.array([ob.matrix_world @ ob.data.vertices[lp.vertex_index].co for lp in ob.data.loops])
         names += [ob.name] * int(keep.sum())
         pos.append(co[keep])
+        nrm.append(normals[keep])
         vals.append(v[keep])
         for kind, inset in REFERENCES.items():
             refs[kind].append(reference.corner_reference(ref, ob.name, inset)[keep])
-    return (np.array(names), np.concatenate(pos), np.concatenate(vals),
-            {kind: np.concatenate(r) for kind, r in refs.items()})
+    pos = np.concatenate(pos)
+    return (np.array(names), pos, np.concatenate(vals), {kind: np.concatenate(r) for kind, r in refs.items()},
+            reference.on_junction(pos, np.concatenate(nrm), faces))
 
 
 def within(err, bounds, case):
@@ -130,15 +167,19 @@ def test_agreement_with_cycles(addon, case):
         scene.frame_set(frame)
     scene.radiosity.preset = preset
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
-    names, pos, v, refs = scene_corners(scene, reference.load(name, frame))
+    names, pos, v, refs, junction = scene_corners(scene, reference.load(name, frame))
     err = {}
     for kind, r in refs.items():
         err[kind] = reference.relative_rms(v, r)
         print(f"\n{name}@{frame} {preset}: {kind} corner relative RMS {100 * err[kind]:.2f}% "
               + " ".join(f"{n} {100 * reference.relative_rms(v, r, names == n):.2f}%" for n in np.unique(names)),
               end="")
+    err["open"] = reference.relative_rms(v, refs["junction"], ~junction)
+    print(f"\n  off junctions ({(~junction).sum()} of {len(junction)} corners): {100 * err['open']:.2f}%, "
+          f"on them {100 * reference.relative_rms(v, refs['junction'], junction):.2f}%", end="")
     print(f"  ({scene.radiosity.last_seconds:.1f} s); worst corners against the junction reference:")
     for i in np.argsort(-((v - refs["junction"]) ** 2).sum(1))[:5]:
         print(f"  {names[i]} ({pos[i][0]:+.3f},{pos[i][1]:+.3f},{pos[i][2]:+.3f}) ours {v[i].mean():.4f} "
               f"junction {refs['junction'][i].mean():.4f} inset {refs['inset'][i].mean():.4f}")
-    assert within(err["junction"], BOUNDS, case) and within(err["inset"], INSET_BOUNDS, case), err
+    assert (within(err["junction"], BOUNDS, case) and within(err["inset"], INSET_BOUNDS, case)
+            and (case not in OPEN_BOUNDS or within(err["open"], OPEN_BOUNDS, case))), err
