@@ -133,7 +133,8 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
 #pragma omp parallel reduction(+ : rays) if (count > kParallelMinimum)
   {
     OcclusionBatch batch = batch_for();
-#pragma omp for schedule(dynamic, 32)
+    // No barrier after the loop: each thread flushes its own batch, into its own receivers.
+#pragma omp for schedule(dynamic, 32) nowait
     for (int i = 0; i < count; ++i) {
       if (cancelled()) continue;
       const ReceiverPoint& p = mesh.points[i];
