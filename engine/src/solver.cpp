@@ -12,6 +12,12 @@ namespace radiosity {
 namespace {
 
 double abs_sum(const dvec3& v) { return std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z); }
+// A patch's unshot radiance times its area, over its corners and sides.
+double unshot_power(const CornerUnshot& unshot, double area) {
+  double sum = 0.0;
+  for (const dvec3& u : unshot) sum += abs_sum(u);
+  return 0.25 * area * sum;
+}
 constexpr double kProgressInterval = 0.05;  // seconds between progress callbacks
 
 }  // namespace
@@ -53,24 +59,35 @@ void Solver::Impl::mark_hidden(int object) {
   std::fill(hidden_point.begin() + o.point_begin, hidden_point.begin() + o.point_end, !scene.meshes[object].visible);
 }
 
-void Solver::Impl::apply_delta() {
+void Solver::Impl::apply_delta(std::vector<double>* power) {
   int points = int(mesh.points.size());
-#pragma omp parallel for schedule(static) if (points > 16 * kParallelMinimum)
-  for (int i = 0; i < points; ++i) {
-    front[i] += delta_front[i];
-    back[i] += delta_back[i];
-  }
   int patches = int(mesh.patches.size());
-#pragma omp parallel for schedule(static) if (patches > 16 * kParallelMinimum)
-  for (int p = 0; p < patches; ++p) {
-    const Patch& patch = mesh.patches[p];
-    if (patch.area == 0) continue;
-    const dvec3& rho = material(p).reflectance;
-    for (int c = 0; c < 4; ++c) {
-      unshot[p][c * 2 + 0] += rho * delta_front[patch.point[c]];
-      unshot[p][c * 2 + 1] += rho * delta_back[patch.point[c]];
+  if (power) patch_power.resize(patches);
+  // One parallel region with no barrier between its loops: the patches read only the delta.
+#pragma omp parallel if (points > 16 * kParallelMinimum)
+  {
+#pragma omp for schedule(static) nowait
+    for (int i = 0; i < points; ++i) {
+      front[i] += delta_front[i];
+      back[i] += delta_back[i];
+    }
+#pragma omp for schedule(static) nowait
+    for (int p = 0; p < patches; ++p) {
+      const Patch& patch = mesh.patches[p];
+      if (patch.area != 0) {
+        const dvec3& rho = material(p).reflectance;
+        for (int c = 0; c < 4; ++c) {
+          unshot[p][c * 2 + 0] += rho * delta_front[patch.point[c]];
+          unshot[p][c * 2 + 1] += rho * delta_back[patch.point[c]];
+        }
+      }
+      if (power) patch_power[p] = unshot_power(unshot[p], patch.area);
     }
   }
+  if (!power) return;
+  // Summed on one thread in patch order, as shooter_power() does: the same sums to the last bit.
+  power->assign(shooters.size(), 0.0);
+  for (int p = 0; p < patches; ++p) (*power)[patch_shooter[p]] += patch_power[p];
 }
 
 std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>& radiance, int samples,
@@ -140,15 +157,12 @@ bool Solver::Impl::inject() {
 
 std::vector<double> Solver::Impl::shooter_power() const {
   std::vector<double> power(shooters.size(), 0.0);
-  for (size_t p = 0; p < mesh.patches.size(); ++p) {
-    double sum = 0.0;
-    for (const dvec3& u : unshot[p]) sum += abs_sum(u);
-    power[patch_shooter[p]] += 0.25 * mesh.patches[p].area * sum;
-  }
+  for (size_t p = 0; p < mesh.patches.size(); ++p)
+    power[patch_shooter[p]] += unshot_power(unshot[p], mesh.patches[p].area);
   return power;
 }
 
-bool Solver::Impl::shoot(int s) {
+bool Solver::Impl::shoot(int s, std::vector<double>& power) {
   double omega = settings.relaxation;
   Shot sent = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[s], unshot, settings.samples_indirect, omega,
                            settings.near_factor);
@@ -162,7 +176,7 @@ bool Solver::Impl::shoot(int s) {
       unshot[p][k] *= 1.0 - omega;  // over-relaxation leaves it negative
     }
   }
-  apply_delta();
+  apply_delta(&power);
   ++stats.shots;
   return true;
 }
@@ -170,8 +184,8 @@ bool Solver::Impl::shoot(int s) {
 void Solver::Impl::propagate(const ProgressCallback& progress) {
   auto last_report = std::chrono::steady_clock::now();
   long first_shot = stats.shots;
+  std::vector<double> power = shooter_power();  // then kept up to date by each shot
   for (;;) {
-    std::vector<double> power = shooter_power();
     double total = 0.0;
     for (double p : power) total += p;
     stats.residual = reference_power > 0 ? total / reference_power : 0.0;
@@ -192,7 +206,7 @@ void Solver::Impl::propagate(const ProgressCallback& progress) {
     }
     if (cancel_requested) break;
     int best = int(std::max_element(power.begin(), power.end()) - power.begin());
-    if (!shoot(best)) break;
+    if (!shoot(best, power)) break;
   }
   stats.cancelled = cancel_requested.load();
   if (progress && !stats.cancelled) progress(1.0, stats.residual);

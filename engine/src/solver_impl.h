@@ -75,8 +75,9 @@ struct Solver::Impl {
   OcclusionBatch delta_batch(int changed_object = -1) {
     return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed_object);
   }
-  // Adds the gathered delta to the solution and, reflected, to the unshot radiance.
-  void apply_delta();
+  // Adds the gathered delta to the solution and, reflected, to the unshot radiance; with `power`,
+  // sets it to shooter_power() after that in the same pass (one read of the unshot radiance a shot).
+  void apply_delta(std::vector<double>* power = nullptr);
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
   void apply_direct_delta();    // apply_delta() for a change of direct light: the residual's scale follows
   void add_direct_power(double change);  // the residual's scale follows the direct light that lands
@@ -93,7 +94,8 @@ struct Solver::Impl {
 
   bool inject();
   std::vector<double> shooter_power() const;
-  bool shoot(int s);
+  std::vector<double> patch_power;  // apply_delta's scratch: each patch's share of shooter_power()
+  bool shoot(int s, std::vector<double>& power);  // power: shooter_power() after the shot
   void propagate(const ProgressCallback& progress);  // shoots until the residual is below threshold
   const SolveStats& solve(const ProgressCallback& progress);
 
