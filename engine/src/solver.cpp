@@ -127,7 +127,7 @@ std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector
     for (Lamp l : scene.lamps) {
       l.position -= mesh.origin;
       l.color *= scale;
-      out.push_back(lamp_source(l, settings.samples_direct, settings.near_factor));
+      out.push_back(lamp_source(l, settings.samples_direct));
     }
     if (channel_sum(scene.world) > 0) out.push_back(world_source(scale * scene.world, settings.samples_direct));
   }
