@@ -132,7 +132,7 @@ void Solver::Impl::change_lamp(int index, const Lamp& lamp) {
     Lamp l = sign < 0 ? scene.lamps[index] : lamp;
     l.position -= mesh.origin;
     l.color *= sign;
-    sources.push_back(lamp_source(l, settings.samples_direct, settings.near_factor));
+    sources.push_back(lamp_source(l, settings.samples_direct));
   }
   gather_direct_change(sources);
   scene.lamps[index] = lamp;

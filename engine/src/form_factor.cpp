@@ -1,5 +1,6 @@
 #include "radiosity/form_factor.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace radiosity {
@@ -122,22 +123,27 @@ void area_moments(Cell& c) {
 }
 
 void bilinear_cells(const dvec3 p[4], int k, Cell* out) {
-  double h = 1.0 / k;
+  // Each grid point is evaluated once and shared with the cells before it in the row and the row
+  // before: evaluating every cell's four corners afresh was most of splitting a near cell 2 x 2.
+  auto at = [&](int i, int j) { return bilinear(p, double(i) / k, double(j) / k); };
   for (int j = 0; j < k; ++j) {
     for (int i = 0; i < k; ++i) {
       Cell& c = out[j * k + i];
-      double u0 = i * h, v0 = j * h;
-      c.corners[0] = bilinear(p, u0, v0);
-      c.corners[1] = bilinear(p, u0 + h, v0);
-      c.corners[2] = bilinear(p, u0 + h, v0 + h);
-      c.corners[3] = bilinear(p, u0, v0 + h);
-      c.centre = bilinear(p, u0 + 0.5 * h, v0 + 0.5 * h);
+      const Cell* left = i > 0 ? &out[j * k + i - 1] : nullptr;
+      const Cell* below = j > 0 ? &out[(j - 1) * k + i] : nullptr;
+      c.corners[0] = left ? left->corners[1] : below ? below->corners[3] : at(i, j);
+      c.corners[1] = below ? below->corners[2] : at(i + 1, j);
+      c.corners[2] = at(i + 1, j + 1);
+      c.corners[3] = left ? left->corners[2] : at(i, j + 1);
+      c.centre = bilinear(p, (i + 0.5) / k, (j + 0.5) / k);
       // Vector area of the cell quad: half the cross product of its diagonals (exact for planar).
       dvec3 va = 0.5 * glm::cross(c.corners[2] - c.corners[0], c.corners[3] - c.corners[1]);
       c.area = glm::length(va);
       c.normal = c.area > 0 ? va / c.area : dvec3(0.0);
-      c.radius = 0.0;
-      for (const dvec3& q : c.corners) c.radius = std::fmax(c.radius, glm::length(q - c.centre));
+      // One square root: it keeps the order of the distances.
+      double r2 = 0.0;
+      for (const dvec3& q : c.corners) r2 = std::max(r2, glm::dot(q - c.centre, q - c.centre));
+      c.radius = std::sqrt(r2);
     }
   }
 }

@@ -119,7 +119,7 @@ void gather_world(const dvec3& radiance, int samples, int receiver, const Receiv
   }
 }
 
-Shot area_lamp_shot(const Lamp& lamp, int samples, double near_factor) {
+Shot area_lamp_shot(const Lamp& lamp, int samples) {
   // Quads counter-clockwise seen from the emitting side, -(u x v) for a rectangle, `direction` for a disc.
   std::vector<std::array<dvec3, 4>> quads;
   if (lamp.type == Lamp::Type::Rect) {
@@ -140,7 +140,6 @@ Shot area_lamp_shot(const Lamp& lamp, int samples, double near_factor) {
   }
   int k = std::max(1, int(std::ceil(std::sqrt(double(samples) / quads.size()))));
   Shot shot;
-  shot.near_factor = near_factor;
   ShotElement e;
   std::vector<Cell> cells(k * k);
   const std::vector<uint8_t> all_corners(k * k, 15);

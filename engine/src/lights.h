@@ -16,7 +16,7 @@ void gather_world(const dvec3& radiance, int samples, int receiver, const Receiv
                   OcclusionBatch& batch);
 
 // Rectangle and disc lamps are one-sided emitting polygons: they shoot like a patch would.
-Shot area_lamp_shot(const Lamp& lamp, int samples, double near_factor);
+Shot area_lamp_shot(const Lamp& lamp, int samples);
 
 // Cycles' spot cone: the cosine to the axis, faded by smoothstep over the blend region.
 double spot_attenuation(const Lamp& lamp, const dvec3& to_receiver_unit);

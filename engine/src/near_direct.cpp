@@ -95,7 +95,6 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   corners.fill(dvec3(0.0));
   // The patch's own cells, as one leaf whose far cells send nothing.
   Shot& leaf = d.interpolated;
-  leaf.near_factor = settings.near_factor;
   leaf.reflected = true;
   for (size_t i = 0; i < whole.patches.size(); ++i) {
     if (!std::equal(patch.point.begin(), patch.point.end(), whole.patches[i].point)) continue;

@@ -31,6 +31,7 @@ struct ShotBuilder {
   ShotCache* cache;
   const std::vector<CornerUnshot>& unshot;
   double scale;
+  double near_factor;
   int cells_per_side;
   Shot& shot;
   std::vector<Cell> cells;  // of the patch being added, kept to spare an allocation per patch
@@ -59,13 +60,13 @@ struct ShotBuilder {
     e.projected_area = glm::length(n.vector_area);
     e.normal = e.projected_area > 0 ? n.vector_area / e.projected_area : dvec3(0.0);
     e.radius = n.radius;
-    e.flat = n.flat;
+    if (n.flat) e.far2 = near_factor * near_factor * n.radius * n.radius;
     if (n.left < 0) {
       add_cells(tree.order[n.begin], e);
     } else {
       e.left = copy(n.left);
       e.right = copy(n.right);
-      if (e.flat) average_visible(node, e);  // only flat clusters ever stand for their patches
+      if (n.flat) average_visible(node, e);  // only flat clusters ever stand for their patches
     }
     shot.elements[id] = e;
     return id;
@@ -192,14 +193,13 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
   int cells_per_side = std::max(1, int(std::ceil(std::sqrt(double(samples) / frontier.size()))));
 
   Shot shot;
-  shot.near_factor = near_factor;
   // Sized up front: growing them copied every element and cell already built, several times a shot.
   const ClusterNode& root = tree.nodes[node];
   shot.elements.reserve(2 * (root.end - root.begin) - 1);
   shot.patches.reserve(root.end - root.begin);
   shot.cells.reserve(size_t(root.end - root.begin) * cells_per_side * cells_per_side);
   ShotCache local;  // without a cache to keep, work it out for this shot alone
-  ShotBuilder builder{mesh, tree, vis, cache ? cache : &local, unshot, scale, cells_per_side, shot, {}};
+  ShotBuilder builder{mesh, tree, vis, cache ? cache : &local, unshot, scale, near_factor, cells_per_side, shot, {}};
   builder.copy(node);
   // Walk the subtree and its copy together to turn the frontier's clusters into elements.
   std::sort(frontier.begin(), frontier.end());
@@ -446,7 +446,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
       }
       if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
       dvec3 d = e.centroid - x;
-      if (e.flat && glm::dot(d, d) > shot.near_factor * shot.near_factor * e.radius * e.radius) {
+      if (glm::dot(d, d) > e.far2) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal,
                    disc_form_factor(x, n, e.centroid, e.normal, e.projected_area), e.radiance, 0.0, batch);
         continue;

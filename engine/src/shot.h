@@ -13,6 +13,7 @@
 #include "visibility.h"
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <unordered_map>
@@ -49,7 +50,9 @@ struct ShotCell {
 struct ShotElement {
   int left = -1, right = -1;    // children (elements) for clusters
   int cell_begin = 0, cell_end = 0;  // cells for patches (leaves)
-  bool flat = false;
+  // Squared distance beyond which it is one sample (near_factor radii; never unless flat). Worked
+  // out once a shot, not at each of the thousands of receivers that ask.
+  double far2 = INFINITY;
   double radius = 0.0;
   dvec3 centroid{0.0}, normal{0.0};
   double projected_area = 0.0;  // |vector area|: cos-weighted area is projected_area * |cos|
@@ -62,7 +65,6 @@ struct Shot {
   std::vector<ShotCell> cells;
   std::vector<ShotPatch> patches;
   std::vector<int> frontier;
-  double near_factor = 3.0;
   // A cell nearer a receiver than split_radii of its radii is split 2 x 2 (each piece one ray), at
   // most split_depth times: more where the light varies within a cell, as the exact direct light
   // of near_direct.cpp does.

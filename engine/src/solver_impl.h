@@ -19,6 +19,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <type_traits>
 #include <vector>
 
 namespace radiosity {
@@ -64,9 +65,15 @@ struct Solver::Impl {
   const Material& material(int patch) const { return scene.materials[mesh.patches[patch].material]; }
 
   // Gathers into delta_* for every receiving point `wanted(i)` accepts, on all cores, in `batch_for`
-  // batches (one per thread). False if cancelled part-way (only when `cancellable`).
-  template <class Wanted, class MakeBatch, class Gather>
-  bool gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& gather_one, bool cancellable = true);
+  // batches (one per thread). False if cancelled part-way (only when `cancellable`). Once all have
+  // gathered, and only if none was passed over, every thread runs `then`: what it shares out with
+  // orphaned `omp for` loops costs no parallel region of its own.
+  struct Nothing {
+    void operator()() const {}
+  };
+  template <class Wanted, class MakeBatch, class Gather, class Then = Nothing>
+  bool gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& gather_one, bool cancellable = true,
+                  Then&& then = {});
   template <class Gather>
   bool gather_all(Gather&& gather_one) {
     return gather_all([](int) { return true; }, [this] { return delta_batch(); }, gather_one);
@@ -77,6 +84,13 @@ struct Solver::Impl {
   }
   // Adds the gathered delta to the solution and, reflected, to the unshot radiance.
   void apply_delta();
+  // apply_delta()'s loops, shared by the threads of the parallel region it is called in (or all on
+  // the calling thread outside one), with no barrier. First, shooter `sent` (if any) moves omega
+  // times its unshot radiance to what it has shot. Leaves each patch's share of shooter_power() in
+  // patch_power, read in the same pass.
+  void absorb_delta(int sent);
+  std::vector<double> patch_power;
+  std::vector<double> summed_power() const;  // shooter_power() from patch_power
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
   void apply_direct_delta();    // apply_delta() for a change of direct light: the residual's scale follows
   void add_direct_power(double change);  // the residual's scale follows the direct light that lands
@@ -93,7 +107,7 @@ struct Solver::Impl {
 
   bool inject();
   std::vector<double> shooter_power() const;
-  bool shoot(int s);
+  bool shoot(int s, std::vector<double>& power);  // power: shooter_power() after the shot
   void propagate(const ProgressCallback& progress);  // shoots until the residual is below threshold
   const SolveStats& solve(const ProgressCallback& progress);
 
@@ -121,30 +135,41 @@ struct Solver::Impl {
   std::array<dvec3, 2> direct_at(const dvec3& y, const dvec3& normal) const;  // H per side
 };
 
-template <class Wanted, class MakeBatch, class Gather>
-bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& gather_one, bool cancellable) {
+template <class Wanted, class MakeBatch, class Gather, class Then>
+bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& gather_one, bool cancellable,
+                              Then&& then) {
   delta_front.assign(mesh.points.size(), dvec3(0.0));
   delta_back.assign(mesh.points.size(), dvec3(0.0));
   long long rays = 0;
   int count = int(mesh.points.size());
   auto cancelled = [&] { return cancellable && cancel_requested.load(std::memory_order_relaxed); };
+  std::atomic<int> passed_over{0};  // receivers left out on cancelling: counted, so all threads agree
   // Small scenes stay on one thread: thousands of tiny parallel regions lose to spinning barriers,
   // badly so when Blender or another process holds the other cores.
 #pragma omp parallel reduction(+ : rays) if (count > kParallelMinimum)
   {
     OcclusionBatch batch = batch_for();
-#pragma omp for schedule(dynamic, 32)
+    // No barrier after the loop: each thread flushes its own batch, into its own receivers.
+#pragma omp for schedule(dynamic, 32) nowait
     for (int i = 0; i < count; ++i) {
-      if (cancelled()) continue;
+      if (cancelled()) {
+        passed_over.fetch_add(1, std::memory_order_relaxed);
+        continue;
+      }
       const ReceiverPoint& p = mesh.points[i];
       if (p.normal == dvec3(0.0) || hidden_point[i] || !wanted(i)) continue;
       gather_one(i, p, batch);
     }
     batch.flush();
     rays += batch.rays_traced();
+    if constexpr (!std::is_same_v<std::decay_t<Then>, Nothing>) {
+      // The one barrier a shot's serial work costs on all cores: `then` reads the whole delta.
+#pragma omp barrier
+      if (passed_over.load(std::memory_order_relaxed) == 0) then();
+    }
   }
   stats.rays += rays;
-  return !cancelled();
+  return passed_over.load() == 0;
 }
 
 }  // namespace radiosity

@@ -38,14 +38,14 @@ void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& ba
   }
 }
 
-Source lamp_source(const Lamp& lamp, int samples, double near_factor) {
+Source lamp_source(const Lamp& lamp, int samples) {
   Source s;
   s.lamp = lamp;
   s.samples = samples;
   s.bounds = {lamp.position, lamp.radius};
   if (lamp.type == Lamp::Type::Rect || lamp.type == Lamp::Type::Disc) {
     s.kind = Source::Kind::Shot;
-    s.shot = area_lamp_shot(lamp, samples, near_factor);
+    s.shot = area_lamp_shot(lamp, samples);
     // A disc is shot as a polygon a little wider than its radius.
     s.bounds.radius = 1.5 * std::max(lamp.radius, glm::length(lamp.u_axis) + glm::length(lamp.v_axis));
   }

@@ -23,7 +23,7 @@ struct Source {
 };
 
 // `lamp` in the patch mesh's frame; rectangle and disc lamps become shots.
-Source lamp_source(const Lamp& lamp, int samples, double near_factor);
+Source lamp_source(const Lamp& lamp, int samples);
 Source world_source(const dvec3& radiance, int samples);
 Source shot_source(Shot shot, int shooter, const Sphere& bounds);
 
