@@ -271,67 +271,28 @@ def label(name, frame):
 
 
 # ----------------------------------------------------------------------------- error breakdown
-def point_triangle_distance(p, a, b, c):
-    """Distance from p (3,) to each triangle (T,3) x 3 (Ericson's closest-point via edge checks)."""
-    n = np.cross(b - a, c - a)
-    nn = np.maximum((n * n).sum(1), 1e-300)
-    q = p - ((p - a) * n).sum(1)[:, None] * n / nn[:, None]           # projection on the plane
-    inside = np.ones(len(a), bool)
-    for u, w in ((a, b), (b, c), (c, a)):
-        inside &= (np.cross(w - u, q - u) * n).sum(1) >= 0
-    d = np.where(inside, np.linalg.norm(p - q, axis=1), np.inf)
-    for u, w in ((a, b), (b, c), (c, a)):
-        e = w - u
-        t = np.clip(((p - u) * e).sum(1) / np.maximum((e * e).sum(1), 1e-300), 0, 1)
-        d = np.minimum(d, np.linalg.norm(p - (u + t[:, None] * e), axis=1))
-    return d
-
-
 def classify(scene, where):
-    """Each corner: 'contact' (a face of another object meets it at an angle, in front of its face:
-    box bottoms on the floor, walls against a separate ceiling), 'junction' (a face of its own
-    object does: a room's edges), else 'other' (convex edges, free corners)."""
-    faces = []   # (object, polygon index, world vertices (n,3), unit normal)
-    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    """Each corner: 'contact' (it lies on a face of another object rising in front of its own: box
+    bottoms on the floor, walls against a separate ceiling), 'junction' (on one of its own object's:
+    a room's edges), else 'other' (convex edges, free corners); reference.junction_faces decides."""
+    faces, owner, loop_place = [], [], {}
     for ob in scene.objects:
         if ob.type != 'MESH' or ob.hide_render:
             continue
         M = np.array(ob.matrix_world)
         co = np.array([v.co for v in ob.data.vertices]) @ M[:3, :3].T + M[:3, 3]
-        lo, hi = np.minimum(lo, co.min(0)), np.maximum(hi, co.max(0))
-        for p in ob.data.polygons:
-            v = co[list(p.vertices)]
-            n = np.cross(v[1] - v[0], v[-1] - v[0])
-            faces.append((ob.name, p.index, v, n / max(np.linalg.norm(n), 1e-300)))
-    eps = 1e-3 * np.linalg.norm(hi - lo)
-    tris = [(i, f[2][0], f[2][k], f[2][k + 1]) for i, f in enumerate(faces) for k in range(1, len(f[2]) - 1)]
-    tri_face = np.array([t[0] for t in tris])
-    A, B, C = (np.array([t[j] for t in tris]) for j in (1, 2, 3))
-    face_of = {}
-    for i, (obn, pi, _, _) in enumerate(faces):
-        face_of[(obn, pi)] = i
-    out = []
-    loop_face = {}
-    for ob in scene.objects:
-        if ob.type == 'MESH' and not ob.hide_render:
-            for p in ob.data.polygons:
-                for li in p.loop_indices:
-                    loop_face[(ob.name, li)] = (p.index, ob.data.loops[li].vertex_index)
-    for obn, li in where:
-        pi, vi = loop_face[(obn, li)]
-        f = face_of[(obn, pi)]
-        ob = scene.objects[obn]
-        p = np.array(ob.matrix_world) @ np.append(np.array(ob.data.vertices[vi].co), 1.0)
-        p, n = p[:3], faces[f][3]
-        near = np.unique(tri_face[point_triangle_distance(p, A, B, C) < eps])
-        kind = "other"
-        for g in near:
-            og, _, vg, ng = faces[g]
-            if g == f or abs(n @ ng) > 0.99 or ((vg - p) @ n).max() <= eps:
-                continue        # itself, parallel (coplanar neighbour, the Cornell light), or behind it
-            kind = "contact" if og != obn else ("junction" if kind == "other" else kind)
-        out.append(kind)
-    return out
+        for poly in ob.data.polygons:
+            v = co[list(poly.vertices)]
+            normal = np.cross(v[1] - v[0], v[-1] - v[0])
+            for li in poly.loop_indices:
+                loop_place[(ob.name, li)] = (co[ob.data.loops[li].vertex_index], normal / np.linalg.norm(normal))
+            faces.append(v)
+            owner.append(ob.name)
+    pos = np.array([loop_place[w][0] for w in where])
+    nrm = np.array([loop_place[w][1] for w in where])
+    hits = reference.junction_faces(pos, nrm, faces)
+    own = np.array(owner)[None, :] == np.array([w[0] for w in where])[:, None]
+    return list(np.where((hits & ~own).any(1), "contact", np.where((hits & own).any(1), "junction", "other")))
 
 
 def breakdown(name, detail):

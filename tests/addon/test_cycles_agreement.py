@@ -17,7 +17,7 @@ with the two cores shared by other jobs, 2-3x slower than alone), junction / ins
 
 Before contact light was evaluated where it lands (interpolated across the boxes' shadow edges) the
 junction metric was 2.77 / 2.20 / 2.04-2.72% at default and 3.81 / 2.14 / 1.41-1.46% at high.
-Off junctions (reference.on_junction: corners on another surface that rises in front of theirs,
+Off junctions (reference.junction_faces: corners on another surface that rises in front of theirs,
 a room's corners, a box's feet), where Cycles' own corner value is well-posed, default gives
 0.98% (Cornell box, 40 of 88 corners), 1.45% (subsurf room, 36 of 68: the Blob's corners, whose
 three Cycles values differ by up to 1.4% between faces) and 2.18% (animated room @1, 12 of 44: the
@@ -79,7 +79,7 @@ INSET_BOUNDS = {
     ("animated_room", 12, "HIGH"): 0.031,
     ("animated_room", 24, "HIGH"): 0.034,
 }
-# the same over the corners off junctions (reference.on_junction), where Cycles' corner is
+# the same over the corners off junctions (reference.junction_faces), where Cycles' corner is
 # well-posed; checked where measured (others print it)
 OPEN_BOUNDS = {
     ("cornell_box", None, "DEFAULT"): 0.011,
@@ -114,7 +114,7 @@ def world_faces(ob):
 
 def scene_corners(scene, ref):
     """The scene's non-emitting corners: object names, world positions, our values, Cycles' values
-    by reference kind, and whether each lies on a junction (reference.on_junction)."""
+    by reference kind, and whether each lies on a junction (reference.junction_faces)."""
     names, pos, nrm, vals, refs = [], [], [], [], {kind: [] for kind in REFERENCES}
     faces = []
     for ob in scene.objects:
@@ -143,7 +143,7 @@ def scene_corners(scene, ref):
             refs[kind].append(reference.corner_reference(ref, ob.name, inset)[keep])
     pos = np.concatenate(pos)
     return (np.array(names), pos, np.concatenate(vals), {kind: np.concatenate(r) for kind, r in refs.items()},
-            reference.on_junction(pos, np.concatenate(nrm), faces))
+            reference.junction_faces(pos, np.concatenate(nrm), faces).any(1))
 
 
 def within(err, bounds, case):

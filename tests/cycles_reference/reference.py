@@ -4,7 +4,7 @@
     ref = load("cornell_box")                 # or load("animated_room", frame=12)
     err = relative_rms(engine_corner_values, corner_reference(ref, "Room"))
     err_inset = relative_rms(engine_corner_values, corner_reference(ref, "Room", inset=True))
-    open_ = ~on_junction(corner_positions, corner_normals, faces)   # corners off any junction
+    open_ = ~junction_faces(corner_positions, corner_normals, faces).any(1)   # off junctions
 
 Layouts are documented in make_references.py.
 """
@@ -61,29 +61,29 @@ def relative_rms(values, reference, mask=None):
     return float(np.sqrt(np.mean((v - r) ** 2)) / max(np.mean(r), 1e-30))
 
 
-def on_junction(positions, normals, faces, tolerance=1e-5):
-    """(K,) bool: whether each corner (world position, its face's unit normal) lies on another face
-    that rises in front of its own, where two surfaces meet at a concave angle: a room's corner, a
-    box's foot on the floor. There Cycles' value at the corner itself is ill-posed: the other
+def junction_faces(positions, normals, faces, tolerance=1e-5):
+    """(K, F) bool: which faces each corner (world position, its face's unit normal) lies on where
+    they rise in front of its own face, two surfaces meeting at a concave angle: a room's corners,
+    a box's feet on the floor. There Cycles' value at the corner itself is ill-posed: the other
     surface is seen edge-on, and its value rises steeply into the face (Cornell ShortBox's foot
     0.053 at the corner, 0.067 1 mm up, 0.072 1 cm up; a room's corner +1.3% in its first 0.1 mm).
-    `faces`: a (n,3) world-space array of corners per face of everything that renders; tolerance
-    is relative to the scene's size."""
+    `faces`: (n,3) world-space arrays of corners, one per face of everything that renders (convex);
+    tolerance is relative to the scene's size. A corner on none: `~junction_faces(...).any(1)`."""
     p = np.asarray(positions, np.float64).reshape(-1, 3)
     n = np.asarray(normals, np.float64).reshape(-1, 3)
     scale = np.ptp(np.concatenate([np.asarray(f, np.float64) for f in faces]), axis=0).max()
     eps = tolerance * scale
-    hit = np.zeros(len(p), bool)
-    for f in faces:
+    hits = np.zeros((len(p), len(faces)), bool)
+    for k, f in enumerate(faces):
         f = np.asarray(f, np.float64)
         fn = np.cross(f[1] - f[0], f[2] - f[0])
         fn /= np.linalg.norm(fn)
         on_plane = np.abs((p - f[0]) @ fn) < eps
-        # inside the (convex) face or on its boundary: the same side of every edge
+        # inside the face or on its boundary: not outside any edge
         edges = np.roll(f, -1, 0) - f
         side = np.einsum("ed,ked->ke", np.cross(edges, fn), p[:, None] - f[None])
         inside = (side <= eps * np.linalg.norm(edges, axis=1)).all(1)
-        rises = ((f[None] - p[:, None]) * n[:, None]).sum(2).max(1) > eps  # some of it in front of the corner's face
+        rises = ((f[None] - p[:, None]) * n[:, None]).sum(2).max(1) > eps  # some of it in front
         crossing = np.abs(n @ fn) < 1 - 1e-6
-        hit |= on_plane & inside & rises & crossing
-    return hit
+        hits[:, k] = on_plane & inside & rises & crossing
+    return hits
