@@ -47,7 +47,7 @@ sys.path.insert(0, os.path.join(ROOT, "tests", "addon"))
 from conftest import load_package  # noqa: E402  (the add-on from addon/, its engine from build/engine)
 import compare_engine  # noqa: E402  (grid_lookup, face_frames; puts build/engine on sys.path)
 import cycles_settings  # noqa: E402
-import make_references  # noqa: E402  (grid_mesh: the dense layout)
+import make_references  # noqa: E402  (grid_mesh: the dense layout; world_faces, emitting_corners)
 import plot_png  # noqa: E402
 import reference  # noqa: E402
 
@@ -87,26 +87,13 @@ def open_scene(name, frame):
 
 
 # ----------------------------------------------------------------------------- error
-def emitting_corners(ob):
-    """Face corners of faces whose material has an Emission node of strength > 0 (the test's rule)."""
-    mats = np.array([p.material_index for p in ob.data.polygons])
-    sizes = np.array([p.loop_total for p in ob.data.polygons])
-    emit = np.zeros(len(mats), bool)
-    for i, slot in enumerate(ob.material_slots):
-        m = slot.material
-        if m is not None and m.use_nodes and any(
-                n.type == 'EMISSION' and n.inputs["Strength"].default_value > 0 for n in m.node_tree.nodes):
-            emit[mats == i] = True
-    return np.repeat(emit, sizes)
-
-
 def corner_table(scene, read, ref):
     """Non-emitting corners of every rendered mesh: (values (K,3), reference (K,3), [(object, loop)])."""
     vals, refs, where = [], [], []
     for ob in scene.objects:
         if ob.type != 'MESH' or ob.hide_render:
             continue
-        keep = ~emitting_corners(ob)
+        keep = ~make_references.emitting_corners(ob)
         vals.append(read(ob)[keep])
         refs.append(ref[ob.name + ":corner"][keep])
         where += [(ob.name, int(i)) for i in np.flatnonzero(keep)]
@@ -254,7 +241,7 @@ def run_cycles_dense(name, frame, spp):
     load1 = os.getloadavg()[0]
     v, r = [], []
     for ob in scene.objects:
-        if ob.type != 'MESH' or ob.hide_render or emitting_corners(ob).all():
+        if ob.type != 'MESH' or ob.hide_render or make_references.emitting_corners(ob).all():
             continue
         v.append(read_attr(ob))
         r.append(ref[ob.name + (":grid" if ob.name + ":grid" in ref else ":eval_value")].reshape(-1, 3))
@@ -275,23 +262,18 @@ def classify(scene, where):
     """Each corner: 'contact' (it lies on a face of another object rising in front of its own: box
     bottoms on the floor, walls against a separate ceiling), 'junction' (on one of its own object's:
     a room's edges), else 'other' (convex edges, free corners); reference.junction_faces decides."""
-    faces, owner, loop_place = [], [], {}
+    faces, owner, place = [], [], {}
     for ob in scene.objects:
         if ob.type != 'MESH' or ob.hide_render:
             continue
-        M = np.array(ob.matrix_world)
-        co = np.array([v.co for v in ob.data.vertices]) @ M[:3, :3].T + M[:3, 3]
-        for poly in ob.data.polygons:
-            v = co[list(poly.vertices)]
-            normal = np.cross(v[1] - v[0], v[-1] - v[0])
-            for li in poly.loop_indices:
-                loop_place[(ob.name, li)] = (co[ob.data.loops[li].vertex_index], normal / np.linalg.norm(normal))
-            faces.append(v)
-            owner.append(ob.name)
-    pos = np.array([loop_place[w][0] for w in where])
-    nrm = np.array([loop_place[w][1] for w in where])
+        co, normals, f = make_references.world_faces(ob)
+        place[ob.name] = (co, normals)
+        faces += f
+        owner += [ob.name] * len(f)
+    pos = np.array([place[o][0][li] for o, li in where])
+    nrm = np.array([place[o][1][li] for o, li in where])
     hits = reference.junction_faces(pos, nrm, faces)
-    own = np.array(owner)[None, :] == np.array([w[0] for w in where])[:, None]
+    own = np.array(owner)[None, :] == np.array([o for o, _ in where])[:, None]
     return list(np.where((hits & ~own).any(1), "contact", np.where((hits & own).any(1), "junction", "other")))
 
 

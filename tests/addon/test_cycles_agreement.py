@@ -49,6 +49,7 @@ from conftest import ROOT, SAMPLES
 from test_addon import colours
 
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
+import make_references  # noqa: E402  (world_faces, emitting_corners)
 import reference  # noqa: E402
 
 SLOW = os.environ.get("DR_SLOW") == "1"
@@ -93,25 +94,6 @@ FAST = {("cornell_box", None, "DEFAULT"), ("subsurf_room", None, "DEFAULT")}
 ISSUE_BOUND = {"DEFAULT": 0.02, "HIGH": 0.01}
 
 
-def world_faces(ob):
-    """(positions (V,3), corner normals (L,3), faces as (n,3) arrays) of a mesh's cage, world space."""
-    me = ob.data
-    M = np.array(ob.matrix_world)
-    co = np.empty(3 * len(me.vertices))
-    me.vertices.foreach_get("co", co)
-    co = co.reshape(-1, 3) @ M[:3, :3].T + M[:3, 3]
-    fn = np.empty(3 * len(me.polygons))
-    me.polygons.foreach_get("normal", fn)
-    fn = fn.reshape(-1, 3) @ np.linalg.inv(M[:3, :3])     # normals go by the inverse transpose
-    fn /= np.linalg.norm(fn, axis=1, keepdims=True)
-    sizes = np.empty(len(me.polygons), np.int32)
-    me.polygons.foreach_get("loop_total", sizes)
-    lv = np.empty(len(me.loops), np.int32)
-    me.loops.foreach_get("vertex_index", lv)
-    faces = np.split(co[lv], np.cumsum(sizes)[:-1])
-    return co[lv], np.repeat(fn, sizes, 0), faces
-
-
 def scene_corners(scene, ref):
     """The scene's non-emitting corners: object names, world positions, our values, Cycles' values
     by reference kind, and whether each lies on a junction (reference.junction_faces)."""
@@ -120,19 +102,10 @@ def scene_corners(scene, ref):
     for ob in scene.objects:
         if ob.type != 'MESH' or ob.hide_render:
             continue
-        co, normals, f = world_faces(ob)
+        co, normals, f = make_references.world_faces(ob)
         faces += f
         v = colours(ob)[:, :3]
-        mats = np.array([p.material_index for p in ob.data.polygons])
-        sizes = np.array([p.loop_total for p in ob.data.polygons])
-        slots = [s.material for s in ob.material_slots]
-        emit = np.zeros(len(mats), bool)
-        for i, m in enumerate(slots):
-            if m is not None and m.use_nodes:
-                for n in m.node_tree.nodes:
-                    if n.type == 'EMISSION' and n.inputs["Strength"].default_value > 0:
-                        emit[mats == i] = True
-        keep = ~np.repeat(emit, sizes)
+        keep = ~make_references.emitting_corners(ob)
         if not keep.any():
             continue
         names += [ob.name] * int(keep.sum())

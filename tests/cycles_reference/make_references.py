@@ -114,6 +114,32 @@ def mesh_arrays(me):
     return co.reshape(-1, 3), sizes, lv, mi
 
 
+def world_faces(ob):
+    """(positions (L,3), face normals (L,3)) per face corner, and the faces as (n,3) arrays, of a
+    mesh object's cage in world space."""
+    co, sizes, lv, _ = mesh_arrays(ob.data)
+    M = np.array(ob.matrix_world)
+    co = co @ M[:3, :3].T + M[:3, 3]
+    fn = np.empty(3 * len(ob.data.polygons))
+    ob.data.polygons.foreach_get("normal", fn)
+    fn = fn.reshape(-1, 3) @ np.linalg.inv(M[:3, :3])     # normals go by the inverse transpose
+    fn /= np.linalg.norm(fn, axis=1, keepdims=True)
+    return co[lv], np.repeat(fn, sizes, 0), np.split(co[lv], np.cumsum(sizes)[:-1])
+
+
+def emitting_corners(ob):
+    """Face corners of faces whose material has an Emission node of strength > 0: the corners the
+    comparisons leave out (an emitter's value is its emission)."""
+    _, sizes, _, mats = mesh_arrays(ob.data)
+    emit = np.zeros(len(mats), bool)
+    for i, slot in enumerate(ob.material_slots):
+        m = slot.material
+        if m is not None and m.use_nodes and any(
+                n.type == 'EMISSION' and n.inputs["Strength"].default_value > 0 for n in m.node_tree.nodes):
+            emit[mats == i] = True
+    return np.repeat(emit, sizes)
+
+
 def grid_mesh(ob, n):
     """Replace ob's quads by n x n unwelded grids, one per face; returns the new mesh."""
     co, sizes, lv, mi = mesh_arrays(ob.data)
