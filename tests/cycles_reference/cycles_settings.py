@@ -1,5 +1,8 @@
 """Cycles settings for an unbiased reference (DESIGN.md section 4): no denoising, no adaptive
-sampling, no clamping, and diffuse bounces only (the scenes are diffuse)."""
+sampling, no clamping, and diffuse bounces only (the scenes are diffuse). Cycles counts a path
+passing through a lamp as a transparent bounce and ends it past the transparent limit: at 0 an area
+lamp absorbed every path that hit it, 0.8% of the light per bounce in a closed room with a 1 x 0.6 m
+lamp (3.6% in all at rho 0.8). Blender's default lets a path through 8."""
 
 
 def unbiased(scene, samples, diffuse_bounces, seed):
@@ -15,5 +18,5 @@ def unbiased(scene, samples, diffuse_bounces, seed):
     cy.max_bounces = diffuse_bounces
     cy.glossy_bounces = 0
     cy.transmission_bounces = 0
-    cy.transparent_max_bounces = 0
+    cy.transparent_max_bounces = diffuse_bounces
     cy.seed = seed

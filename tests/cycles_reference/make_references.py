@@ -8,7 +8,8 @@
 
 For each sample .blend (the animated room at frames 1, 12 and 24) this writes
 tests/cycles_reference/<scene>[_fNNN].npz with Cycles' COMBINED bake (emission included), settings as
-in DESIGN.md section 4: no denoising, no adaptive sampling, no clamping, 64 diffuse/max bounces.
+in DESIGN.md section 4: no denoising, no adaptive sampling, no clamping, 64 diffuse/max/transparent
+bounces (cycles_settings.py says why transparent).
 
 Three layouts per mesh object, keyed by object name:
 
