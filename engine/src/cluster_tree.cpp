@@ -16,7 +16,6 @@ struct Builder {
   int build(int begin, int end) {
     int id = int(tree.nodes.size());
     tree.nodes.emplace_back();
-    summarise(id, begin, end);
     if (end - begin > 1) {
       int mid = split(begin, end);
       int left = build(begin, mid);
@@ -24,13 +23,17 @@ struct Builder {
       tree.nodes[id].left = left;
       tree.nodes[id].right = right;
     }
+    summarise(id, begin, end);
     return id;
   }
 
-  // Sets the node's bounds and summary from its patches (on a refit, anew: children stay).
+  // Sets the node's bounds and summary from its patches (on a refit, anew: children stay), after
+  // its children's: its second moment is theirs, moved to its centroid.
   void summarise(int id, int begin, int end) {
     ClusterNode& node = tree.nodes[id];
-    node = ClusterNode{begin, end, node.left, node.right};
+    int left = node.left, right = node.right;
+    node = ClusterNode();
+    node.begin = begin, node.end = end, node.left = left, node.right = right;
     dvec3 weighted(0.0), plain(0.0);
     for (int i = begin; i < end; ++i) {
       const Patch& p = mesh.patches[tree.order[i]];
@@ -48,6 +51,27 @@ struct Builder {
       for (int v : p.vertex) node.radius = std::max(node.radius, glm::length(mesh.vertices[v] - node.centroid));
     }
     node.flat = glm::length(node.vector_area) >= kFlat * node.area;
+    if (node.area > 0) node.spread = node.left < 0 ? patch_spread(tree.order[begin], node.centroid) : merged_spread(node);
+  }
+
+  Symmetric3 patch_spread(int patch, const dvec3& about) const {
+    const Patch& p = mesh.patches[patch];
+    dvec3 corners[4];
+    for (int c = 0; c < 4; ++c) corners[c] = mesh.vertices[p.vertex[c]];
+    Cell cell;
+    bilinear_cells(corners, 1, &cell);
+    area_moments(cell);
+    return cell.spread.add(Symmetric3::outer(cell.centroid - about), 1.0);
+  }
+
+  Symmetric3 merged_spread(const ClusterNode& node) const {
+    Symmetric3 spread;
+    for (int child : {node.left, node.right}) {
+      const ClusterNode& c = tree.nodes[child];
+      double w = c.area / node.area;
+      spread.add(c.spread, w).add(Symmetric3::outer(c.centroid - node.centroid), w);
+    }
+    return spread;
   }
 
   // Median split along the widest of position and (scaled) normal: clusters come out compact and
@@ -100,7 +124,7 @@ ClusterTree ClusterTree::build(const PatchMesh& mesh) {
 void ClusterTree::refit(const PatchMesh& mesh, int object) {
   Builder builder{mesh, *this};
   auto [first, last] = object_nodes(object);
-  for (int id = first; id < last; ++id) builder.summarise(id, nodes[id].begin, nodes[id].end);
+  for (int id = last - 1; id >= first; --id) builder.summarise(id, nodes[id].begin, nodes[id].end);  // children first
 }
 
 std::pair<int, int> ClusterTree::object_nodes(int object) const {

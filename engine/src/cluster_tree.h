@@ -4,6 +4,7 @@
 #pragma once
 
 #include "patch_mesh.h"
+#include "radiosity/form_factor.h"
 
 #include <utility>
 #include <vector>
@@ -18,6 +19,7 @@ struct ClusterNode {
   dvec3 vector_area{0.0};    // sum of normal * area: the cluster's projected area in any direction
   double area = 0.0;
   double radius = 0.0;       // bounding sphere around the centroid
+  Symmetric3 spread;         // second moment of its area about the centroid, per unit area
   bool flat = false;         // normals agree well enough for the cluster to act as one sample
 };
 

@@ -97,29 +97,21 @@ void area_moments(Cell& c) {
   for (int i = 0; i < 4; ++i) q[i] = c.corners[i] - c.centre;
   double area = 0.0;
   dvec3 first(0.0);
-  glm::dmat3 second(0.0);
+  Symmetric3 second;
   for (int t = 0; t < 2; ++t) {
     const dvec3 &a = q[0], &b = q[t + 1], &e = q[t + 2];
     double at = 0.5 * glm::dot(glm::cross(b - a, e - a), c.normal);
     dvec3 sum = a + b + e;
     area += at;
     first += at * sum / 3.0;
-    second += (at / 12.0) * (glm::outerProduct(a, a) + glm::outerProduct(b, b) + glm::outerProduct(e, e) +
-                             glm::outerProduct(sum, sum));
+    for (const dvec3& v : {a, b, e, sum}) second.add(Symmetric3::outer(v), at / 12.0);
   }
   dvec3 offset = area > 0 ? first / area : dvec3(0.0);
   c.centroid = c.centre + offset;
   c.reach = 0.0;
   for (const dvec3& p : q) c.reach = std::fmax(c.reach, glm::length(p - offset));
-  if (!(area > 0)) {
-    c.spread = Symmetric3();
-    return;
-  }
-  glm::dmat3 flat = glm::dmat3(1.0) - glm::outerProduct(c.normal, c.normal);
-  glm::dmat3 m = flat * (second / area - glm::outerProduct(offset, offset)) * flat;
-  // Symmetric up to round-off: each pair's mean keeps it so.
-  c.spread = {m[0][0], m[1][1], m[2][2],
-              0.5 * (m[0][1] + m[1][0]), 0.5 * (m[0][2] + m[2][0]), 0.5 * (m[1][2] + m[2][1])};
+  c.spread = area > 0 ? Symmetric3().add(second, 1 / area).add(Symmetric3::outer(offset), -1).in_plane(c.normal)
+                      : Symmetric3();
 }
 
 void bilinear_cells(const dvec3 p[4], int k, Cell* out) {

@@ -60,7 +60,10 @@ struct ShotBuilder {
     e.projected_area = glm::length(n.vector_area);
     e.normal = e.projected_area > 0 ? n.vector_area / e.projected_area : dvec3(0.0);
     e.radius = n.radius;
-    if (n.flat) e.far2 = near_factor * near_factor * n.radius * n.radius;
+    if (n.flat) {
+      e.far2 = near_factor * near_factor * n.radius * n.radius;
+      e.spread = n.spread.in_plane(e.normal);
+    }
     if (n.left < 0) {
       add_cells(tree.order[n.begin], e);
     } else {
@@ -263,13 +266,16 @@ Shot scaled(Shot shot, double scale) {
 
 namespace {
 
-// Disc approximation of a distant cluster's form factor (exact on the axis of a disc): the bare
-// point kernel A/(pi r^2) overshoots by (R/r)^2, some 10% at three radii, and that energy adds up
-// over a solve.
-double disc_form_factor(const dvec3& x, const dvec3& n, const dvec3& centre, const dvec3& normal, double area) {
-  dvec3 d = centre - x;
+// Form factor of a distant flat cluster. Where the receiver's plane clears it, the kernel expanded
+// to second order, right whatever the orientations: the disc approximation is right on the axis
+// only, and beside the edge where a wall meets the floor it fell 15% short at three radii, which
+// lost 0.6% of a furnace's light near its edges. Where the plane cuts it, the disc approximation.
+double cluster_form_factor(const dvec3& x, const dvec3& n, const ShotElement& e) {
+  dvec3 d = e.centroid - x;
   double r2 = glm::dot(d, d);
-  return std::fabs(glm::dot(normal, d) * glm::dot(n, d)) * area / (r2 * (kPi * r2 + area));  // one division
+  double f = glm::dot(n, d), g = glm::dot(e.normal, d);
+  if (clear_of_plane(n, e.normal, f, e.radius)) return expanded_form_factor(d, r2, f, g, e.projected_area, e.spread, n);
+  return disc_form_factor(r2, f, g, e.projected_area);
 }
 
 // One ray to `target` carries `factor` times the radiance of the side of an element (at `centre`,
@@ -447,8 +453,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
       if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
       dvec3 d = e.centroid - x;
       if (glm::dot(d, d) > e.far2) {
-        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal,
-                   disc_form_factor(x, n, e.centroid, e.normal, e.projected_area), e.radiance, 0.0, batch);
+        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, cluster_form_factor(x, n, e), e.radiance, 0.0, batch);
         continue;
       }
       stack[top++] = e.right;

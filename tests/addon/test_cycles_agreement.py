@@ -2,28 +2,28 @@
 
 Metric (the issue's): relative RMS (reference.relative_rms: sqrt(mean |v - r|^2) / mean(r), all
 channels) over every non-emitting face corner of the scene, i.e. the values a user sees.
-The issue asks for 2% (default preset) and 1% (high). Measured on this machine (engine of 2026-12-01,
-contact light evaluated where it lands; references' corners at 262,144 spp, ~0.2% noise; bake times
-with the two cores shared by other jobs, 2-3x slower than alone), junction / inset metric:
+The issue asks for 2% (default preset) and 1% (high). Measured on this machine (engine of 2026-12-02,
+far clusters' second-order form factor and near_factor 5; references' corners at 262,144 spp, ~0.2%
+noise, the subsurf room's baked again with its area lamp transparent to paths; bake times with the
+two cores shared by other jobs, 2-3x slower than alone), junction / inset metric, and off junctions:
 
-    scene             default                    high
-    cornell_box        1.64% / 1.95%  (16 s)      1.49% / 1.96%  (102 s)
-    subsurf_room       1.84% / 2.43%  (9 s)       1.66% / not run (170 s) (2.10 / 2.62, 2.07 / 3.11
-                                                                          before smooth-shaded corners
-                                                                          took Cycles' facet share)
-    animated_room@1    1.55% / 2.96%  (35 s)      1.18% / 2.96%  (252 s)
-    animated_room@12   1.78% / 2.80%  (39 s)      1.26% / 2.85%  (271 s)
-    animated_room@24   1.76% / 3.10%  (38 s)      1.21% / 3.08%  (279 s)
+    scene             default                          high
+    cornell_box        1.36% / 1.62%, 0.59%  (5 s)      1.41% / 1.78%, 0.30%  (46 s)
+    subsurf_room       1.54% / 2.85%, 1.43%  (15 s)     1.31% / 3.26%, 1.25%  (75 s)
+    animated_room@1    1.30% / 2.40%, 0.64%  (34 s)     0.91% / 2.52%, 0.44%  (127 s)
+    animated_room@12   1.71% / 2.34%, 0.96%  (19 s)     1.14% / 2.44%, 0.62%  (130 s)
+    animated_room@24   1.47% / 2.53%, 0.89%  (13 s)     0.92% / 2.57%, 0.56%  (131 s)
 
-Before contact light was evaluated where it lands (interpolated across the boxes' shadow edges) the
-junction metric was 2.77 / 2.20 / 2.04-2.72% at default and 3.81 / 2.14 / 1.41-1.46% at high.
-Off junctions (reference.junction_faces: corners on another surface that rises in front of theirs,
-a room's corners, a box's feet), where Cycles' own corner value is well-posed, default gives
-0.98% (Cornell box, 40 of 88 corners), 1.45% (subsurf room, 36 of 68: the Blob's corners, whose
-three Cycles values differ by up to 1.4% between faces) and 2.18% (animated room @1, 12 of 44: the
-box's face towards the near wall, 4-5% dark; near_factor 6 takes it to 1.03%).
+Before (engine and references of 2026-12-01: disc-approximated far clusters at near_factor 3, which
+lost light beside a room's edges, and the subsurf room's reference baked with transparent bounces
+at 0, where Cycles' area lamp absorbed 0.8% of the light at each bounce) default was 1.64 / 1.84 /
+1.55-1.78% and high 1.49 / 1.66 / 1.18-1.26%. Off junctions (reference.junction_faces: corners on
+another surface that rises in front of theirs, a room's corners, a box's feet), Cycles' own corner
+value is well-posed there; the corners counted are 40 of 88 (Cornell box), 36 of 68 (subsurf room:
+the Blob's corners, whose three Cycles values differ by up to 1.4% between faces) and 12 of 44.
 
-The bounds below are these plus a small margin, NOT the issue's 1% at high, which is not met.
+The bounds below are these plus a small margin, NOT the issue's 1% at high, which only the animated
+room at frames 1 and 24 meets.
 Tightening them is the engine's work; do not loosen them without measuring.
 
 The inset metric compares the same `Radiosity` corner values (our value at a corner stands for the
@@ -56,36 +56,36 @@ SLOW = os.environ.get("DR_SLOW") == "1"
 
 # (scene, frame, preset) -> relative RMS bound (measured + margin)
 BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.019,
-    ("subsurf_room", None, "DEFAULT"): 0.02,
-    ("animated_room", 1, "DEFAULT"): 0.018,
-    ("animated_room", 12, "DEFAULT"): 0.02,
-    ("animated_room", 24, "DEFAULT"): 0.02,
-    ("cornell_box", None, "HIGH"): 0.017,
-    ("subsurf_room", None, "HIGH"): 0.018,
-    ("animated_room", 1, "HIGH"): 0.014,
-    ("animated_room", 12, "HIGH"): 0.015,
-    ("animated_room", 24, "HIGH"): 0.014,
+    ("cornell_box", None, "DEFAULT"): 0.015,
+    ("subsurf_room", None, "DEFAULT"): 0.017,
+    ("animated_room", 1, "DEFAULT"): 0.015,
+    ("animated_room", 12, "DEFAULT"): 0.019,
+    ("animated_room", 24, "DEFAULT"): 0.017,
+    ("cornell_box", None, "HIGH"): 0.016,
+    ("subsurf_room", None, "HIGH"): 0.015,
+    ("animated_room", 1, "HIGH"): 0.011,
+    ("animated_room", 12, "HIGH"): 0.013,
+    ("animated_room", 24, "HIGH"): 0.011,
 }
 # the same against the references a little inside the faces (make_references.py: corner_inset)
 INSET_BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.022,
-    ("subsurf_room", None, "DEFAULT"): 0.026,
-    ("animated_room", 1, "DEFAULT"): 0.032,
-    ("animated_room", 12, "DEFAULT"): 0.031,
-    ("animated_room", 24, "DEFAULT"): 0.034,
-    ("cornell_box", None, "HIGH"): 0.022,
-    ("subsurf_room", None, "HIGH"): 0.034,
-    ("animated_room", 1, "HIGH"): 0.032,
-    ("animated_room", 12, "HIGH"): 0.031,
-    ("animated_room", 24, "HIGH"): 0.034,
+    ("cornell_box", None, "DEFAULT"): 0.018,
+    ("subsurf_room", None, "DEFAULT"): 0.031,
+    ("animated_room", 1, "DEFAULT"): 0.027,
+    ("animated_room", 12, "DEFAULT"): 0.026,
+    ("animated_room", 24, "DEFAULT"): 0.028,
+    ("cornell_box", None, "HIGH"): 0.02,
+    ("subsurf_room", None, "HIGH"): 0.035,
+    ("animated_room", 1, "HIGH"): 0.028,
+    ("animated_room", 12, "HIGH"): 0.027,
+    ("animated_room", 24, "HIGH"): 0.028,
 }
 # the same over the corners off junctions (reference.junction_faces), where Cycles' corner is
 # well-posed; checked where measured (others print it)
 OPEN_BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.011,
+    ("cornell_box", None, "DEFAULT"): 0.008,
     ("subsurf_room", None, "DEFAULT"): 0.016,
-    ("animated_room", 1, "DEFAULT"): 0.024,
+    ("animated_room", 1, "DEFAULT"): 0.009,
 }
 # reference kind -> corner_reference's inset: at the corner itself (ill-posed where it lies on a
 # junction with another surface), or a little inside its face

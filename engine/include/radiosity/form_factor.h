@@ -6,6 +6,7 @@
 
 #include <glm/glm.hpp>
 
+#include <cmath>
 #include <optional>
 
 namespace radiosity {
@@ -29,6 +30,22 @@ struct Symmetric3 {
     return dvec3(xx * v.x + xy * v.y + xz * v.z, xy * v.x + yy * v.y + yz * v.z, xz * v.x + yz * v.y + zz * v.z);
   }
   double trace() const { return xx + yy + zz; }
+  static Symmetric3 outer(const dvec3& v) {
+    return {v.x * v.x, v.y * v.y, v.z * v.z, v.x * v.y, v.x * v.z, v.y * v.z};
+  }
+  Symmetric3& add(const Symmetric3& o, double weight) {
+    xx += weight * o.xx, yy += weight * o.yy, zz += weight * o.zz;
+    xy += weight * o.xy, xz += weight * o.xz, yz += weight * o.yz;
+    return *this;
+  }
+  // P M P, P the projection onto the plane normal to unit n: the moment flattened into that plane.
+  Symmetric3 in_plane(const dvec3& n) const {
+    dvec3 mn = *this * n;  // P M P = M - n (Mn)^T - (Mn) n^T + (n.Mn) n n^T
+    Symmetric3 out = *this;
+    out.xx -= 2 * n.x * mn.x, out.yy -= 2 * n.y * mn.y, out.zz -= 2 * n.z * mn.z;
+    out.xy -= n.x * mn.y + mn.x * n.y, out.xz -= n.x * mn.z + mn.x * n.z, out.yz -= n.y * mn.z + mn.y * n.z;
+    return out.add(outer(n), glm::dot(n, mn));
+  }
 };
 
 // A planar-enough quadrilateral piece of a shooter with its sample point at the centre.
@@ -48,6 +65,36 @@ struct Cell {
 // near the cell, and costs little less than the exact value next to a visibility ray.
 SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n);
 
+// The point kernel f g / (pi r^4) integrated to second order over a flat element of `area` whose
+// second moment about its centroid (per unit area, in its plane, where g is constant) is `spread`:
+// A (K + tr(H M) / 2), H the kernel's Hessian. d runs from the receiver (x, n) to the centroid, f and
+// g are the heights n.d and m.d. Valid where the receiver's plane does not cut the element. One
+// division serves all the terms.
+inline double expanded_form_factor(const dvec3& d, double r2, double f, double g, double area,
+                                   const Symmetric3& spread, const dvec3& n) {
+  constexpr double kPi = 3.14159265358979323846;
+  dvec3 md = spread * d;
+  double inv = 1.0 / (f * r2 * r2);
+  double correction = 1 - 2 * spread.trace() * f * r2 * inv + 12 * glm::dot(d, md) * f * inv -
+                      4 * glm::dot(n, md) * r2 * inv;
+  return std::fabs(f * f * g * inv) * area * correction / kPi;
+}
+
+// The disc approximation of the same, right on the axis of a disc: the bare point kernel
+// A / (pi r^2) overshoots there by (R / r)^2. One division.
+inline double disc_form_factor(double r2, double f, double g, double area) {
+  constexpr double kPi = 3.14159265358979323846;
+  return std::fabs(f * g) * area / (r2 * (kPi * r2 + area));
+}
+
+// Whether the receiver's plane (x, n) stays clear of an element of `reach` about its centroid, d
+// away, facing `normal`: the element's points' heights over the plane differ from the centroid's,
+// f = n.d, by at most the reach times the sine between the planes.
+inline bool clear_of_plane(const dvec3& n, const dvec3& normal, double f, double reach) {
+  double cosine = glm::dot(n, normal);
+  return f * f > reach * reach * (1 - cosine * cosine);
+}
+
 // Form factor from (x, n) to a distant cell that the receiver's plane does not come near, by the
 // point kernel expanded to second order about the cell's centroid: error O((radius / distance)^4)
 // of A / (pi r^2) (third order for cells without central symmetry), for a fraction of Lambert's cost.
@@ -56,30 +103,19 @@ inline std::optional<double> distant_cell_form_factor(const Cell& cell, const dv
   // Beyond this many radii the error is below 2e-4 of A / (pi r^2), and over a whole view it
   // partly cancels: a furnace at rho = 0.99 stays within its 0.1%.
   constexpr double kDistantRadii = 8.0;
-  constexpr double kPi = 3.14159265358979323846;
   dvec3 d = cell.centroid - x;
   double r2 = glm::dot(d, d);
   if (r2 < kDistantRadii * kDistantRadii * cell.radius * cell.radius) return std::nullopt;
   double g = glm::dot(cell.normal, d);
   if (!(std::fabs(g) > 1e-9 * cell.radius)) return 0.0;  // x in the cell's plane sees it edge-on
-  // The corners' heights over the receiver's plane differ from the centroid's by at most the
-  // reach times the sine between the planes: beyond that the plane cannot cut the cell.
   double f = glm::dot(n, d);
-  double cosine = glm::dot(n, cell.normal);
-  if (!(f * f > cell.reach * cell.reach * (1 - cosine * cosine))) return std::nullopt;
+  if (!clear_of_plane(n, cell.normal, f, cell.reach)) return std::nullopt;
   // Farther still, the disc approximation's error, (radius / distance)^2 off the axis, is below
   // 1e-3 and it reads less of the cell: most cells of a fine mesh are this far.
   constexpr double kDiscRadii = 32.0;
   if (r2 > kDiscRadii * kDiscRadii * cell.radius * cell.radius)
-    return std::fabs(f * g) * cell.area / (r2 * (kPi * r2 + cell.area));
-  // The kernel f g / (pi r^4) (f, g: heights of the point over the planes) integrated to second
-  // order, A (K + tr(H M) / 2) with H its Hessian; M lies in the cell's plane, where g is constant.
-  // One division serves all the terms.
-  dvec3 md = cell.spread * d;
-  double trace = cell.spread.trace();
-  double inv = 1.0 / (f * r2 * r2);
-  double correction = 1 - 2 * trace * f * r2 * inv + 12 * glm::dot(d, md) * f * inv - 4 * glm::dot(n, md) * r2 * inv;
-  return std::fabs(f * f * g * inv) * cell.area * correction / kPi;
+    return disc_form_factor(r2, f, g, cell.area);
+  return expanded_form_factor(d, r2, f, g, cell.area, cell.spread, n);
 }
 
 // Splits the bilinear patch p0 p1 p2 p3 (counter-clockwise) into k x k cells at their centres:

@@ -16,7 +16,9 @@ struct Settings {
   // (coarse shooters, fine receivers): their number does not grow with the receiver count.
   double shooter_size_relative = 1.0 / 8.0;
   // A cluster or micro-element closer than near_factor times its radius is split / integrated exactly.
-  double near_factor = 3.0;
+  // A far cluster's form factor is good to fourth order in radius / distance: a furnace of 6,144
+  // patches at rho 0.9 comes out 0.23% bright at 3, 0.10% at 4, 0.045% at 5 (+2% rays over 3).
+  double near_factor = 5.0;
   double threshold = 1e-3;   // stop when unshot power / injected power falls below this
   double relaxation = 1.3;   // over-relaxation of reflected shots (1 = plain progressive refinement)
   // Reported points gather the direct light their near surroundings reflect once more, evaluated
