@@ -126,7 +126,47 @@ void Solver::Impl::change_world(const dvec3& world) {
   scene.world = world;
 }
 
+namespace {
+
+bool is_zero(const dvec3& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
+
+bool same_but_colour(const Lamp& a, const Lamp& b) {
+  return a.type == b.type && a.position == b.position && a.direction == b.direction && a.radius == b.radius &&
+         a.angle == b.angle && a.spot_size == b.spot_size && a.spot_blend == b.spot_blend &&
+         a.u_axis == b.u_axis && a.v_axis == b.v_axis;
+}
+
+}  // namespace
+
+// Radiosity is linear in the light sent: when one lamp is all the light there is (no other lamp,
+// world or emission) and only its strength changes, every radiance held is that lamp's, so the
+// whole state scales with it. Exact, and no rays: a key light dimming over an animation costs a
+// pass over the arrays instead of a solve's worth of reflected shots. The factor must be one for
+// all channels: the residual's scale is a sum over them.
+bool Solver::Impl::scale_sole_lamp(int index, const Lamp& lamp) {
+  const Lamp& old = scene.lamps[index];
+  if (!same_but_colour(old, lamp) || !is_zero(scene.world)) return false;
+  for (size_t i = 0; i < scene.lamps.size(); ++i)
+    if (int(i) != index && !is_zero(scene.lamps[i].color)) return false;
+  for (const Material& m : scene.materials)
+    if (!is_zero(m.emission)) return false;
+  if (is_zero(old.color)) return false;
+  double k = glm::dot(lamp.color, old.color) / glm::dot(old.color, old.color);
+  if (glm::length(lamp.color - k * old.color) > 1e-12 * glm::length(lamp.color)) return false;
+  for (auto* points : {&front, &back})
+    for (dvec3& h : *points) h *= k;
+  for (auto* patches : {&unshot, &shot})
+    for (CornerUnshot& c : *patches)
+      for (dvec3& r : c) r *= k;
+  injected_power *= k;
+  reference_power *= k;
+  touched.assign(mesh.points.size(), 1);
+  scene.lamps[index] = lamp;
+  return true;
+}
+
 void Solver::Impl::change_lamp(int index, const Lamp& lamp) {
+  if (scale_sole_lamp(index, lamp)) return;
   std::vector<Source> sources;
   for (double sign : {-1.0, 1.0}) {
     Lamp l = sign < 0 ? scene.lamps[index] : lamp;

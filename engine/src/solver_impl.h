@@ -117,6 +117,7 @@ struct Solver::Impl {
   void gather_direct_change(const std::vector<Source>& sources);  // everywhere, then applied
   void change_world(const dvec3& world);
   void change_lamp(int index, const Lamp& lamp);
+  bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
   void change_material(int index, const Material& material);
   void change_object(int object, const MeshDesc& mesh, const RefinedMesh& refined);
   std::vector<char> touched;  // per point: its light was recomputed by this update

@@ -129,6 +129,32 @@ def test_the_residual_follows_an_emitter_that_vanishes_or_appears(ceiling):
         assert error <= 0.01, f"cube visible={visible}: {error:.4%} from a fresh solve"
 
 
+def test_a_sole_lamp_changing_strength_scales_the_solution_exactly():
+    # One lamp is all the light (the animated sample's case): a change of its strength alone scales
+    # every radiance held, exactly and without a ray; a general update would differ from that by its
+    # sampling (about 1e-3). With the cube moving in the same update, the move then goes as usual.
+    state = dict(ROOM_STATE, lamp_emission=0.0, world=(0.0, 0.0, 0.0))
+    s = settings("default")
+    scene, ids, cube = changing_room(state, 0.35)
+    solver = engine.Solver(scene, s)
+    solver.solve()
+    before = values(solver, ids)
+    position, intensity = state["point"]
+    for k, offset in ((2.5, None), (0.5, (0.1, 0.2, 0.4))):
+        intensity = tuple(k * np.asarray(intensity))
+        state["point"] = (position, intensity)
+        solver.set_point_light(0, position, intensity, 0.05)
+        if offset is not None:
+            state["cube"] = offset
+            solver.set_transform(cube, translation(offset))
+        stats = solver.update()
+        assert stats["converged"] and stats["residual"] <= s.threshold
+        got = values(solver, ids)
+        if offset is None:
+            np.testing.assert_allclose(got, k * before, rtol=1e-6, atol=0)
+        assert relative_rms(got, fresh(state, s, 0.35)) <= 0.01
+
+
 def plate_room(offset):
     scene, ids, _ = changing_room(ROOM_STATE, patch_size=0.35)
     m = scene.add_material((0.6, 0.6, 0.6))
