@@ -128,8 +128,6 @@ void Solver::Impl::change_world(const dvec3& world) {
 
 namespace {
 
-bool is_zero(const dvec3& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
-
 bool same_but_colour(const Lamp& a, const Lamp& b) {
   return a.type == b.type && a.position == b.position && a.direction == b.direction && a.radius == b.radius &&
          a.angle == b.angle && a.spot_size == b.spot_size && a.spot_blend == b.spot_blend &&
@@ -145,12 +143,12 @@ bool same_but_colour(const Lamp& a, const Lamp& b) {
 // all channels: the residual's scale is a sum over them.
 bool Solver::Impl::scale_sole_lamp(int index, const Lamp& lamp) {
   const Lamp& old = scene.lamps[index];
-  if (!same_but_colour(old, lamp) || !is_zero(scene.world)) return false;
+  // Colours are validated non-negative: a zero channel sum is no light.
+  if (!same_but_colour(old, lamp) || channel_sum(scene.world) > 0 || !(channel_sum(old.color) > 0)) return false;
   for (size_t i = 0; i < scene.lamps.size(); ++i)
-    if (int(i) != index && !is_zero(scene.lamps[i].color)) return false;
+    if (int(i) != index && channel_sum(scene.lamps[i].color) > 0) return false;
   for (const Material& m : scene.materials)
-    if (!is_zero(m.emission)) return false;
-  if (is_zero(old.color)) return false;
+    if (channel_sum(m.emission) > 0) return false;
   double k = glm::dot(lamp.color, old.color) / glm::dot(old.color, old.color);
   if (glm::length(lamp.color - k * old.color) > 1e-12 * glm::length(lamp.color)) return false;
   for (auto* points : {&front, &back})
