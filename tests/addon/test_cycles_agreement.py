@@ -54,38 +54,23 @@ import reference  # noqa: E402
 
 SLOW = os.environ.get("DR_SLOW") == "1"
 
-# (scene, frame, preset) -> relative RMS bound (measured + margin)
+# (scene, frame, preset) -> relative RMS bounds (measured + margin), per metric: "junction", every
+# corner against Cycles' value at the corner itself (the issue's metric); "inset", against Cycles a
+# little inside the faces (make_references.py: corner_inset); "open", the corners off junctions
+# (reference.junction_faces), where Cycles' corner is well-posed, checked where measured (None:
+# printed only). The issue's own bound stands in for the first two where it is met (within()).
+METRICS = ("junction", "inset", "open")
 BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.015,
-    ("subsurf_room", None, "DEFAULT"): 0.017,
-    ("animated_room", 1, "DEFAULT"): 0.015,
-    ("animated_room", 12, "DEFAULT"): 0.019,
-    ("animated_room", 24, "DEFAULT"): 0.017,
-    ("cornell_box", None, "HIGH"): 0.016,
-    ("subsurf_room", None, "HIGH"): 0.015,
-    ("animated_room", 1, "HIGH"): 0.011,
-    ("animated_room", 12, "HIGH"): 0.013,
-    ("animated_room", 24, "HIGH"): 0.011,
-}
-# the same against the references a little inside the faces (make_references.py: corner_inset)
-INSET_BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.018,
-    ("subsurf_room", None, "DEFAULT"): 0.031,
-    ("animated_room", 1, "DEFAULT"): 0.027,
-    ("animated_room", 12, "DEFAULT"): 0.026,
-    ("animated_room", 24, "DEFAULT"): 0.028,
-    ("cornell_box", None, "HIGH"): 0.02,
-    ("subsurf_room", None, "HIGH"): 0.035,
-    ("animated_room", 1, "HIGH"): 0.028,
-    ("animated_room", 12, "HIGH"): 0.027,
-    ("animated_room", 24, "HIGH"): 0.028,
-}
-# the same over the corners off junctions (reference.junction_faces), where Cycles' corner is
-# well-posed; checked where measured (others print it)
-OPEN_BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): 0.008,
-    ("subsurf_room", None, "DEFAULT"): 0.016,
-    ("animated_room", 1, "DEFAULT"): 0.009,
+    ("cornell_box", None, "DEFAULT"): (0.015, 0.018, 0.008),
+    ("subsurf_room", None, "DEFAULT"): (0.017, 0.031, 0.016),
+    ("animated_room", 1, "DEFAULT"): (0.015, 0.027, 0.009),
+    ("animated_room", 12, "DEFAULT"): (0.019, 0.026, None),
+    ("animated_room", 24, "DEFAULT"): (0.017, 0.028, None),
+    ("cornell_box", None, "HIGH"): (0.016, 0.02, None),
+    ("subsurf_room", None, "HIGH"): (0.015, 0.035, None),
+    ("animated_room", 1, "HIGH"): (0.011, 0.028, None),
+    ("animated_room", 12, "HIGH"): (0.013, 0.027, None),
+    ("animated_room", 24, "HIGH"): (0.011, 0.028, None),
 }
 # reference kind -> corner_reference's inset: at the corner itself (ill-posed where it lies on a
 # junction with another surface), or a little inside its face
@@ -119,12 +104,12 @@ def scene_corners(scene, ref):
             reference.junction_faces(pos, np.concatenate(nrm), faces).any(1))
 
 
-def within(err, bounds, case):
-    """The issue's bound where it is met, else the measured one."""
-    bound = bounds.get(case, ISSUE_BOUND[case[2]])
-    if err <= ISSUE_BOUND[case[2]]:
-        bound = ISSUE_BOUND[case[2]]
-    return err <= bound
+def within(err, case):
+    """Each metric's measured bound; for the junction and inset metrics, the issue's bound where it
+    is met. The open metric is not the issue's: 2% would leave its bound (0.8-1.6%) nothing to decide."""
+    issue = ISSUE_BOUND[case[2]]
+    return all(bound is None or err[m] <= (bound if m == "open" else max(bound, issue))
+               for m, bound in zip(METRICS, BOUNDS[case]))
 
 
 CASES = [k for k in BOUNDS if SLOW or k in FAST]
@@ -154,5 +139,4 @@ def test_agreement_with_cycles(addon, case):
     for i in np.argsort(-((v - refs["junction"]) ** 2).sum(1))[:5]:
         print(f"  {names[i]} ({pos[i][0]:+.3f},{pos[i][1]:+.3f},{pos[i][2]:+.3f}) ours {v[i].mean():.4f} "
               f"junction {refs['junction'][i].mean():.4f} inset {refs['inset'][i].mean():.4f}")
-    assert (within(err["junction"], BOUNDS, case) and within(err["inset"], INSET_BOUNDS, case)
-            and (case not in OPEN_BOUNDS or within(err["open"], OPEN_BOUNDS, case))), err
+    assert within(err, case), err
