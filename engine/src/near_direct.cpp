@@ -99,6 +99,8 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   for (size_t i = 0; i < whole.patches.size(); ++i) {
     if (!std::equal(patch.point.begin(), patch.point.end(), whole.patches[i].point)) continue;
     leaf.patches.push_back(whole.patches[i]);
+    // Its close view of itself is the solver's, with no finer evaluation to put in its place.
+    for (auto& corner : leaf.patches.back().own_view) corner[0] = corner[1] = 0.0;
     for (const ShotCell& cell : whole.cells)
       if (cell.patch == int(i)) {
         leaf.cells.push_back(cell);

@@ -1,5 +1,6 @@
 #include "patch_mesh.h"
 
+#include "corner_view.h"
 #include "refine.h"
 
 #include <algorithm>
@@ -83,19 +84,6 @@ std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const Refin
   return corner_normals;
 }
 
-// The part of a cosine-weighted hemisphere about `shading` (a corner's normal) that lies above the
-// plane of patch corner `c` and its two edges: (1 + cos tilt) / 2. Cycles' diffuse BSDF samples
-// about the shading normal and drops what falls under the facet it shades (bsdf_diffuse_sample),
-// so a smooth-shaded facet's corner reflects only that part of the light coming from around it
-// (taken as uniform). Exactly 1 where the patch's own normal shades the corner (flat objects).
-double facet_share(const PatchMesh& pm, const Patch& patch, int c, const dvec3& shading) {
-  if (shading == patch.normal) return 1.0;
-  const dvec3& at = pm.vertices[patch.vertex[c]];
-  dvec3 facet = glm::cross(pm.vertices[patch.vertex[(c + 1) % 4]] - at, pm.vertices[patch.vertex[(c + 3) % 4]] - at);
-  double length = glm::length(facet);
-  return length > 0 ? 0.5 * (1.0 + std::clamp(glm::dot(facet, shading) / length, -1.0, 1.0)) : 1.0;
-}
-
 // Puts points [begin, end) at their vertices, facing the way their first corner faces, nudged
 // towards the centres of their patches. `corner_normal[slot - first_slot]` is a corner's normal.
 void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int begin, int end) {
@@ -104,17 +92,16 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
     int first = pm.point_slots[pm.point_slot_begin[p]];
     rp.position = pm.vertices[pm.patches[first / 4].vertex[first % 4]];
     rp.normal = corner_normal[first - first_slot];
+    CornerView view = corner_view(pm, p, corner_normal, first_slot);
+    rp.reflected_share = view.reflected_share;
     dvec3 centre_sum(0.0);
-    double share_sum = 0.0;
     int count = 0;
     for (int i = pm.point_slot_begin[p]; i < pm.point_slot_begin[p + 1]; ++i) {
       int slot = pm.point_slots[i];
+      pm.own_view[slot] = view.own[i - pm.point_slot_begin[p]];
       const Patch& patch = pm.patches[slot / 4];
-      if (patch.area == 0) continue;
-      centre_sum += patch.centre, ++count;
-      share_sum += facet_share(pm, patch, slot % 4, corner_normal[slot - first_slot]);
+      if (patch.area > 0) centre_sum += patch.centre, ++count;
     }
-    rp.reflected_share = count > 0 ? share_sum / count : 1.0;
     if (count == 0) continue;
     // Along the tangent plane only: on a curved surface the patch centres lie below it, and a
     // point moved towards them would sit inside the tessellated surface, shadowed by itself.
@@ -160,6 +147,7 @@ void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals) {
   }
   for (size_t p = 0; p < pm.points.size(); ++p) pm.point_slot_begin[p + 1] += pm.point_slot_begin[p];
   pm.point_slots.resize(slots);
+  pm.own_view.resize(slots);
   std::vector<int> fill(pm.point_slot_begin.begin(), pm.point_slot_begin.end() - 1);
   for (int s = 0; s < slots; ++s) pm.point_slots[fill[slot_point[s]]++] = s;
   place_points(pm, corner_normals.data(), 0, 0, int(pm.points.size()));

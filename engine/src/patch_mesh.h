@@ -27,10 +27,11 @@ struct ReceiverPoint {
   dvec3 position;  // nudged slightly into its patches: a point exactly on a junction line sees the
                    // adjoining wall edge-on and would get nothing from it
   dvec3 normal;    // unit; zero when all its patches are degenerate
-  // Of the light reflected towards it, the part its corners take (their mean): on a smooth-shaded
-  // surface Cycles' diffuse BSDF drops directions under the corner's own facet, which the shading
-  // normal tilts away from (a Subdivision Surface's corners: 1-2% at level 2). 1 on flat patches.
-  double reflected_share = 1.0;
+  // Per side: of the light reflected towards it from beyond its own patches, the part its corners
+  // take (their mean). On a smooth-shaded surface Cycles' diffuse BSDF drops directions under the
+  // corner's own facet, which the shading normal tilts away from (a Subdivision Surface's corners:
+  // 1-2% at level 2; corner_view.h). 1 on flat patches.
+  std::array<double, 2> reflected_share{1.0, 1.0};
 };
 
 struct ObjectPatches {
@@ -52,6 +53,9 @@ struct PatchMesh {
   std::vector<ReceiverPoint> points;
   std::vector<int> point_slot_begin;  // CSR: point -> patch * 4 + corner slots using it
   std::vector<int> point_slots;
+  // Per slot (patch * 4 + corner), per side: the part of its point's view the patch fills at close
+  // range, which the point takes at the corner's radiance (CornerView::own; 0 on flat surfaces).
+  std::vector<std::array<double, 2>> own_view;
   std::vector<ObjectPatches> objects;  // one per SceneDesc mesh
   int degenerate_patches = 0;
 };

@@ -116,7 +116,10 @@ struct ShotBuilder {
       for (int c = 0; c < 4; ++c) {
         light.corner[c] = mesh.vertices[patch.vertex[c]];
         light.point[c] = patch.point[c];
-        for (int s = 0; s < 2; ++s) light.radiance[c][s] = scale * unshot[p][c * 2 + s];
+        for (int s = 0; s < 2; ++s) {
+          light.radiance[c][s] = scale * unshot[p][c * 2 + s];
+          light.own_view[c][s] = mesh.own_view[4 * p + c][s];
+        }
       }
       // A twisted patch bulges off its triangles by a quarter of its twist, at its centre: a ray
       // ending on the patch short of that could end behind the triangles and count as blocked.
@@ -416,12 +419,20 @@ void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot& shot, 
   if (lit) exact_piece(receiver, x, n, {sc.cell, sc.u0, sc.v0, sc.size}, light, 0, batch);
 }
 
-// A point takes nothing from the patches it lies on. They are flat, or curved so that a point on
+// A point takes no cells of the patches it lies on. They are flat, or curved so that a point on
 // them sees them edge-on; but the point sits a little off their corners' planes, which Lambert's
-// formula would take for a view of a whole quarter of the sky, lit by the point's own light.
-bool lies_on(const ShotPatch& patch, int receiver) {
-  return patch.point[0] == receiver || patch.point[1] == receiver || patch.point[2] == receiver ||
-         patch.point[3] == receiver;
+// formula would take for a view of a whole quarter of the sky, lit by the point's own light. What
+// they do show it, at close range on a concave surface, it takes at its corner's radiance, with
+// no ray (and so nothing that a move elsewhere changes).
+int corner_at(const ShotPatch& patch, int receiver) {
+  for (int c = 0; c < 4; ++c)
+    if (patch.point[c] == receiver) return c;
+  return -1;
+}
+
+void take_own_view(const ShotPatch& patch, int c, int receiver, OcclusionBatch& batch) {
+  for (int side = 0; side < 2; ++side)
+    if (patch.own_view[c][side] > 0) batch.add(receiver, side == 0, patch.own_view[c][side] * patch.radiance[c][side]);
 }
 
 }  // namespace
@@ -437,11 +448,18 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
     while (top > 0) {
       const ShotElement& e = shot.elements[stack[--top]];
       if (e.left < 0) {
+        if (e.cell_begin == e.cell_end) continue;
+        // A leaf holds one patch's cells (or an area lamp's quads, which no point lies on).
+        const ShotPatch& leaf = shot.patches[shot.cells[e.cell_begin].patch];
+        if (int c = corner_at(leaf, receiver); c >= 0) {
+          if (!zone) take_own_view(leaf, c, receiver, batch);
+          continue;
+        }
         for (int c = e.cell_begin; c < e.cell_end; ++c) {
           const ShotCell& sc = shot.cells[c];
           const Cell& cell = sc.cell;
           const ShotPatch& patch = shot.patches[sc.patch];
-          if ((zone && !zone->may_cross(x, {cell.centre, cell.radius})) || lies_on(patch, receiver)) continue;
+          if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
           if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
             far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, *factor, sc.radiance, patch.lift, batch);
             continue;
@@ -460,7 +478,7 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
       stack[top++] = e.left;
     }
   }
-  batch.set_share(1.0);
+  batch.set_share({1.0, 1.0});
 }
 
 }  // namespace radiosity

@@ -36,6 +36,9 @@ struct ShotPatch {
   dvec3 corner[4];
   dvec3 radiance[4][2];              // [corner][side], side 0 = front
   const PieceRadiance* piece = nullptr;
+  // [corner][side]: the part of the corner's point's view the patch fills at close range (the
+  // point's own patch: PatchMesh::own_view).
+  double own_view[4][2] = {};
 };
 
 struct ShotCell {
@@ -71,7 +74,8 @@ struct Shot {
   // of near_direct.cpp does.
   double split_radii = 2.0;
   int split_depth = 3;
-  // Light that surfaces reflected (not emitted): a receiver takes its reflected_share of it.
+  // Light that surfaces reflected (not emitted): a receiver takes its reflected_share of what
+  // comes from beyond the patches it lies on.
   bool reflected = false;
 };
 

@@ -198,7 +198,7 @@ bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, cons
 void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
                                  const dvec3& irradiance) {
   double eps = vis_.epsilon();
-  push(&sum(receiver, front), x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, share_ * irradiance);
+  push(&sum(receiver, front), x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, share_[!front] * irradiance);
 }
 
 unsigned OcclusionBatch::keep_changed() {

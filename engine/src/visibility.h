@@ -110,13 +110,17 @@ class OcclusionBatch {
     dvec3 end = y + (glm::dot(target_normal, d) <= 0 ? eps + lift : -eps - lift) * target_normal;
     dvec3 dir = end - origin;
     if (glm::dot(dir, dir) <= 4 * eps * eps) {  // touching: nothing fits (nor moves) in between
-      if (changed_object_ < 0) sum(receiver, front) += share_ * irradiance;
+      if (changed_object_ < 0) sum(receiver, front) += share_[!front] * irradiance;
       return;
     }
-    push(&sum(receiver, front), origin, dir, kSegment, share_ * irradiance);
+    push(&sum(receiver, front), origin, dir, kSegment, share_[!front] * irradiance);
   }
-  // The part of what is sent from now on that the receivers take (ReceiverPoint::reflected_share).
-  void set_share(double share) { share_ = share; }
+  // Light that reaches the receiver without a ray (CornerView::own), not scaled by the share.
+  void add(int receiver, bool front, const dvec3& irradiance) {
+    if (changed_object_ < 0) sum(receiver, front) += irradiance;
+  }
+  // The part of what is sent from now on that the receivers take, per side (ReceiverPoint::reflected_share).
+  void set_share(const std::array<double, 2>& share) { share_ = share; }
   // Ray from x to infinity along dir (sun, sky).
   void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
                    const dvec3& irradiance);
@@ -144,7 +148,7 @@ class OcclusionBatch {
   dvec3* back_;
   int changed_object_;
   int first_;
-  double share_ = 1.0;
+  std::array<double, 2> share_{1.0, 1.0};
   RTCRay rays_[kCapacity];
   dvec3* into_[kCapacity];  // the accumulator (receiver and side) each ray adds to
   dvec3 carried_[kCapacity];

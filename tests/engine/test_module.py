@@ -1,4 +1,5 @@
 """The Python module: arrays in and out, lamps against closed forms, progress, cancel, errors."""
+import json
 import math
 import os
 import sys
@@ -288,16 +289,25 @@ def test_smooth_shaded_corners_take_the_light_cycles_facets_let_in():
 
 
 def test_rays_reach_a_twisted_patch():
-    # Nearly no reflection: B - E is rho times the light gathered from the whole surface, which a
-    # point inside sees all of but the 1% its own patches make. Rays ending on a twisted patch short
-    # of its bulge off Embree's triangles were blocked: 0.93 of it arrived at level 3.
+    # Nearly no reflection: B - E is rho times the light gathered from the whole surface, most of
+    # one bounce and rho of the next; no more than 1 / (1 - rho) in all. A point inside sees all of
+    # the surface but what lies under its corners' facets (0.4% at level 3). Rays ending on a
+    # twisted patch short of its bulge off Embree's triangles were blocked: 0.93 arrived at level 3.
     rho = 0.01
     gathered = (curved_furnace(rho)[:, 0] - 1.0) / rho
-    assert gathered.min() > 0.985 and gathered.max() < 1.001
+    assert gathered.min() > 0.99 and gathered.max() < 1 / (1 - rho)
 
 
-@pytest.mark.xfail(strict=True, reason="inside a curved (Catmull-Clark) surface some light is lost near each "
-                   "point: (1 - rho) B = 0.55 / 0.82 / 0.95 / 0.95 at levels 1-4 (rho 0.8); see README")
-def test_inside_a_curved_furnace():
-    # Inside a closed surface every patch emits E and reflects rho: B = E / (1 - rho) everywhere.
-    assert np.abs(curved_furnace(0.8) / 5.0 - 1.0).max() < 0.01
+@pytest.mark.parametrize("level, bound", [(1, 0.10), (2, 0.04), (3, 0.01)])
+def test_inside_a_curved_furnace_as_cycles_bakes_it(level, bound):
+    # Inside a closed surface every patch emits E and reflects rho: B = E / (1 - rho) on flat
+    # faces. Cycles' smooth-shaded corners drop what lies under their facets, and on a concave
+    # surface the facets next to a corner show it the rest at close range (corner_view.h): the
+    # point, which gathers nothing from the patches it lies on, missed that. Against Cycles' bake
+    # of the same cube (curved_furnace.json, 4,096 spp): -9.5 / -3.2 / -0.9% at levels 1-3 (it was
+    # -41 / -18 / -5.6%). What is left is the faces' insides: Cycles' shading normal tilts less from the
+    # facet there than at the corners, so a face sends on more light than its corners show.
+    with open(os.path.join(os.path.dirname(__file__), "..", "cycles_reference", "curved_furnace.json")) as f:
+        cycles = json.load(f)
+    ours = curved_furnace(cycles["rho"], level).mean(1) * (1 - cycles["rho"])
+    assert abs(ours.mean() / cycles["levels"][str(level)]["mean"] - 1) < bound
