@@ -7,22 +7,14 @@ namespace radiosity {
 
 namespace {
 
-constexpr int kAzimuthSteps = 32;  // per facet corner: the integrands are smooth in azimuth
+// Per facet corner. The curved furnace (test_module.py) moves by 0.02% from 16 to 32, 0.15% at 8.
+constexpr int kAzimuthSteps = 16;
 
 // A patch corner's facet: the plane of its two edges at the corner.
 struct Facet {
   dvec3 normal{0.0};  // unit; zero if the edges are parallel
   double azimuth = 0.0, width = 0.0;  // the corner's angle, projected on the point's tangent plane
 };
-
-// Directions about `pole` at azimuth u (unit, in the tangent plane) lie under the plane through
-// the point with unit normal m from some elevation on (if at all); of the cosine-weighted view
-// along that azimuth, the part from there to the horizon is cos^2 of that elevation angle:
-// a cos t + b sin t < 0 beyond tan t = a / -b.
-double under(const dvec3& pole, const dvec3& m, const dvec3& u) {
-  double a = std::max(glm::dot(pole, m), 1e-9), b = glm::dot(u, m);
-  return b < 0 ? b * b / (a * a + b * b) : 0.0;
-}
 
 // The part of the cosine-weighted hemisphere about `shading` above the facet: (1 + cos tilt) / 2.
 double share_above(const Facet& f, const dvec3& shading) {
@@ -70,39 +62,44 @@ CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, i
   view.reflected_share = {share, share};
   if (!smooth) return view;  // flat: the patches it lies on are its tangent plane
 
-  // Per side, along each azimuth of each facet corner: the directions under that facet (which it
-  // shows the point at close range) and above each corner's facet (which Cycles keeps there).
-  std::vector<double> seen_by(live.size());
-  for (int side = 0; side < 2; ++side) {
-    dvec3 pole = side == 0 ? n : -n;
-    double sign = side == 0 ? 1.0 : -1.0;
-    double hidden = 0.0, own_sum = 0.0;
-    for (int j : live) {
-      const Facet& fj = facets[j];
-      if (fj.normal == dvec3(0.0)) continue;
-      double step = fj.width / kAzimuthSteps;
-      std::fill(seen_by.begin(), seen_by.end(), 0.0);
-      for (int k = 0; k < kAzimuthSteps; ++k) {
-        double phi = fj.azimuth + (k + 0.5) * step;
-        dvec3 u = std::cos(phi) * t1 + std::sin(phi) * t2;
-        double below = under(pole, sign * fj.normal, u);
+  // Along each azimuth of each facet corner, per side: the directions under that facet (which it
+  // shows the point at close range) and above each corner's facet (which Cycles keeps there). The
+  // back side sees the same planes from the other pole: the same heights, the other sign.
+  size_t count = live.size();
+  std::vector<double> rise(count), along(count);  // a facet normal's height over the pole; along u
+  for (size_t f = 0; f < count; ++f) rise[f] = std::max(glm::dot(n, facets[live[f]].normal), 1e-9);
+  // Along azimuth u, the part of the view from where the facet's plane passes over it to the horizon.
+  auto under = [&](size_t f, double sign) {
+    double b = sign * along[f];
+    return b < 0 ? b * b / (rise[f] * rise[f] + b * b) : 0.0;
+  };
+  std::array<double, 2> hidden{0.0, 0.0}, own_sum{0.0, 0.0};
+  for (size_t j = 0; j < count; ++j) {
+    const Facet& fj = facets[live[j]];
+    if (fj.normal == dvec3(0.0)) continue;
+    double step = fj.width / kAzimuthSteps, weight = step / (2 * M_PI);
+    std::array<double, 2> seen{0.0, 0.0};
+    for (int k = 0; k < kAzimuthSteps; ++k) {
+      double phi = fj.azimuth + (k + 0.5) * step;
+      dvec3 u = std::cos(phi) * t1 + std::sin(phi) * t2;
+      for (size_t f = 0; f < count; ++f) along[f] = glm::dot(u, facets[live[f]].normal);
+      for (int side = 0; side < 2; ++side) {
+        double sign = side == 0 ? 1.0 : -1.0;
+        double below = under(j, sign);
         if (below == 0) continue;
-        hidden += below * step / (2 * M_PI);
-        for (size_t f = 0; f < live.size(); ++f) {
-          const Facet& ff = facets[live[f]];
-          double cut = ff.normal == dvec3(0.0) ? 0.0 : under(pole, sign * ff.normal, u);
-          seen_by[f] += std::max(0.0, below - cut) * step / (2 * M_PI);
-        }
+        hidden[side] += below * weight;
+        for (size_t f = 0; f < count; ++f) seen[side] += std::max(0.0, below - under(f, sign)) * weight;
       }
-      double mean = 0.0;
-      for (double s : seen_by) mean += s;
-      view.own[j][side] = mean / live.size();
-      own_sum += view.own[j][side];
     }
-    // What the point gathers from beyond its own patches fills 1 - hidden of its view; the
-    // corners take share - own_sum of the whole, spread as that light is.
-    view.reflected_share[side] = std::clamp((share - own_sum) / std::max(1.0 - hidden, 1e-3), 0.0, 1.0);
+    for (int side = 0; side < 2; ++side) {
+      view.own[live[j]][side] = seen[side] / count;
+      own_sum[side] += view.own[live[j]][side];
+    }
   }
+  // What the point gathers from beyond its own patches fills 1 - hidden of its view; the corners
+  // take share - own_sum of the whole, spread as that light is.
+  for (int side = 0; side < 2; ++side)
+    view.reflected_share[side] = std::clamp((share - own_sum[side]) / std::max(1.0 - hidden[side], 1e-3), 0.0, 1.0);
   return view;
 }
 
