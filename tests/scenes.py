@@ -94,13 +94,15 @@ def cube_positions(scale=(1.0, 1.0, 1.0), size=0.3):
     at most `size`, so it refines as before), and the Mesh they came from."""
     cube = Mesh()
     cube.add_box((0, 0, 0), (size, size, size), 0)
+    cube.weld()  # connected, as a Catmull-Clark surface needs; the same patches when bilinear
     return np.array(cube.positions) * np.asarray(scale), cube
 
 
-def changing_room(state=ROOM_STATE, patch_size=0.0):
+def changing_room(state=ROOM_STATE, patch_size=0.0, smooth=False):
     """The Cornell box with a small dynamic cube, a point lamp and a dim world, in `state`.
     Returns (scene, object ids, cube id); the cube's material is the last one, the ceiling lamp's 3.
-    state["cube_visible"] None: no cube at all (ids without it, cube id None)."""
+    state["cube_visible"] None: no cube at all (ids without it, cube id None). `smooth`: the cube
+    is a Catmull-Clark surface (level 2), smooth-shaded."""
     scene, ids = cornell_box(patch_size, state["lamp_emission"])
     m = scene.add_material(state["cube_rho"], (state["cube_emission"],) * 3)
     cube_id = None
@@ -110,8 +112,8 @@ def changing_room(state=ROOM_STATE, patch_size=0.0):
         cube.materials = [m] * len(cube.faces)
         transform = np.eye(4)
         transform[:3, 3] = state["cube"]
-        cube_id = cube.add_to(scene, refine="bilinear", patch_size=patch_size, transform=transform, dynamic=True,
-                              visible=state["cube_visible"])
+        refine = dict(refine="catmull_clark", level=2) if smooth else dict(refine="bilinear", patch_size=patch_size)
+        cube_id = cube.add_to(scene, **refine, transform=transform, dynamic=True, visible=state["cube_visible"])
     scene.add_point_light(*state["point"], 0.05)
     scene.set_world(state["world"])
     return scene, ids + ([cube_id] if cube_id is not None else []), cube_id

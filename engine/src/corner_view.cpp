@@ -23,11 +23,29 @@ double share_above(const Facet& f, const dvec3& shading) {
 
 }  // namespace
 
+double interior_share(const dvec3 corner[4], const dvec3 normal[4]) {
+  // Midpoint rule on 4 x 4: the integrand is smooth, and flat at 1 where the normals agree.
+  constexpr int k = 4;
+  double sum = 0.0;
+  for (int j = 0; j < k; ++j)
+    for (int i = 0; i < k; ++i) {
+      double u = (i + 0.5) / k, v = (j + 0.5) / k;
+      dvec3 du = (1 - v) * (corner[1] - corner[0]) + v * (corner[2] - corner[3]);
+      dvec3 dv = (1 - u) * (corner[3] - corner[0]) + u * (corner[2] - corner[1]);
+      dvec3 facet = glm::cross(du, dv);
+      dvec3 shading = (1 - u) * (1 - v) * normal[0] + u * (1 - v) * normal[1] + u * v * normal[2] + (1 - u) * v * normal[3];
+      double lengths = glm::length(facet) * glm::length(shading);
+      sum += lengths > 0 ? 0.5 * (1.0 + std::clamp(glm::dot(facet, shading) / lengths, -1.0, 1.0)) : 1.0;
+    }
+  return sum / (k * k);
+}
+
 CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, int first_slot) {
   const ReceiverPoint& rp = pm.points[p];
   int begin = pm.point_slot_begin[p], end = pm.point_slot_begin[p + 1];
   CornerView view;
   view.own.assign(end - begin, {0.0, 0.0});
+  view.onward.assign(end - begin, 1.0);
   dvec3 n = rp.normal;
   if (n == dvec3(0.0)) return view;
   dvec3 t1 = glm::normalize(std::fabs(n.x) < 0.9 ? glm::cross(n, dvec3(1, 0, 0)) : glm::cross(n, dvec3(0, 1, 0)));
@@ -54,7 +72,9 @@ CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, i
     f.width = std::fmod(azimuth(prev) - f.azimuth + 4 * M_PI, 2 * M_PI);
     const dvec3& shading = corner_normal[slot - first_slot];
     smooth |= shading != patch.normal;
-    share_sum += shading == patch.normal ? 1.0 : share_above(f, shading);
+    double share = shading == patch.normal ? 1.0 : share_above(f, shading);
+    share_sum += share;
+    view.onward[i - begin] = share > 0 ? patch.interior_share / share : 1.0;
     live.push_back(i - begin);
   }
   if (live.empty()) return view;

@@ -21,9 +21,19 @@ struct CornerView {
   // weighted view that slot's patch fills, above the corners' facets (their mean), seen at close
   // range, where its radiance is its corner's.
   std::vector<std::array<double, 2>> own;
+  // Per slot: of the point's reflected light, what that slot's patch corner sends on, relative to
+  // what the point holds. Inside a face Cycles' shading normal is interpolated and tilts less from
+  // the facet than at its corners, so the face reflects more of the light round it than its
+  // corners show: the patch's interior share over the corner's facet share. 1 on flat patches.
+  std::vector<double> onward;
 };
 
-// For point `p`, whose corners' normals are `corner_normal[slot - first_slot]`.
+// Of the light reflected towards a smooth-shaded bilinear patch (corners `corner`, shading normals
+// `normal` at them, interpolated inside), the part Cycles' facets let in, over the patch's area.
+double interior_share(const dvec3 corner[4], const dvec3 normal[4]);
+
+// For point `p`, whose corners' normals are `corner_normal[slot - first_slot]` (the patches'
+// interior_share set).
 CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, int first_slot);
 
 }  // namespace radiosity

@@ -86,8 +86,8 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
 }
 
 void Solver::Impl::restart() {
-  std::fill(front.begin(), front.end(), dvec3(0.0));
-  std::fill(back.begin(), back.end(), dvec3(0.0));
+  for (auto* points : {&front, &back, &reflected_front, &reflected_back})
+    std::fill(points->begin(), points->end(), dvec3(0.0));
   CornerUnshot none;
   none.fill(dvec3(0.0));
   std::fill(unshot.begin(), unshot.end(), none);
@@ -106,7 +106,7 @@ void Solver::Impl::add_direct_power(double change) {
 
 void Solver::Impl::apply_direct_delta() {
   add_direct_power(landed_power());
-  apply_delta();
+  apply_delta(Light::direct);
   if (reference_power == 0)  // the first light: as a solve starts
     for (double p : shooter_power()) reference_power += p;
 }
@@ -151,7 +151,7 @@ bool Solver::Impl::scale_sole_lamp(int index, const Lamp& lamp) {
     if (channel_sum(m.emission) > 0) return false;
   double k = glm::dot(lamp.color, old.color) / glm::dot(old.color, old.color);
   if (glm::length(lamp.color - k * old.color) > 1e-12 * glm::length(lamp.color)) return false;
-  for (auto* points : {&front, &back})
+  for (auto* points : {&front, &back, &reflected_front, &reflected_back})
     for (dvec3& h : *points) h *= k;
   for (auto* patches : {&unshot, &shot})
     for (CornerUnshot& c : *patches)
@@ -179,7 +179,8 @@ void Solver::Impl::change_lamp(int index, const Lamp& lamp) {
 void Solver::Impl::change_material(int index, const Material& m) {
   Material old = scene.materials[index];
   scene.materials[index] = m;
-  // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did.
+  // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did (of
+  // their points' reflected light, `onward` times it).
   dvec3 rho = m.reflectance - old.reflectance;
   dvec3 emission = m.emission - old.emission;
   std::vector<CornerUnshot> emitted(mesh.patches.size());
@@ -190,9 +191,11 @@ void Solver::Impl::change_material(int index, const Material& m) {
     if (patch.material != index || patch.area == 0 || !scene.meshes[patch.object].visible) continue;
     emitted[p].fill(emission);
     for (int c = 0; c < 4; ++c) {
-      unshot[p][2 * c] += rho * front[patch.point[c]];
-      unshot[p][2 * c + 1] += rho * back[patch.point[c]];
-      touched[patch.point[c]] = 1;
+      int i = patch.point[c];
+      double onward = mesh.onward[4 * p + c];
+      unshot[p][2 * c] += rho * (front[i] + (onward - 1) * reflected_front[i]);
+      unshot[p][2 * c + 1] += rho * (back[i] + (onward - 1) * reflected_back[i]);
+      touched[i] = 1;
     }
   }
   // Emitted light: the difference, shot like all emission.
@@ -267,7 +270,7 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   // What the object's shooters sent, taken back from where it was. The rest, as they shoot now.
   emit_own(-1.0);
   gather_all(elsewhere, plain, gather_from(reflected_sources(-1.0, &own)), kWhole);
-  apply_delta();
+  apply_delta(Light::reflected);
   std::vector<Source> others_direct = direct_sources(1.0, nullptr);
   std::vector<Source> others_reflected = reflected_sources(1.0, nullptr);
   std::vector<Source> near_before = sources_of(1.0, &near);
@@ -283,16 +286,21 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   if (!m.visible)
     for (int p = o.patch_begin; p < o.patch_end; ++p) shot[p].fill(dvec3(0.0));
   emit_own(1.0);
-  std::vector<Source> resent = reflected_sources(1.0, &own);
+  std::vector<Source> resent[2] = {{}, reflected_sources(1.0, &own)};  // emitted, reflected
   std::vector<Source> near_after = sources_of(1.0, &near);
   for (size_t k = 0; k < near_after.size(); ++k)
     if (!same_light(near_before[k].shot, near_after[k].shot)) {
-      resent.push_back(std::move(near_after[k]));
+      std::vector<Source>& kind = resent[near_after[k].shot.reflected];
+      kind.push_back(std::move(near_after[k]));
       near_before[k].shot = scaled(std::move(near_before[k].shot), -1.0);
-      resent.push_back(std::move(near_before[k]));
+      kind.push_back(std::move(near_before[k]));
     }
-  gather_all(elsewhere, plain, gather_from(resent), kWhole);
-  apply_delta();
+  for (Light light : {Light::direct, Light::reflected}) {
+    const std::vector<Source>& kind = resent[light == Light::reflected];
+    if (kind.empty()) continue;
+    gather_all(elsewhere, plain, gather_from(kind), kWhole);
+    apply_delta(light);
+  }
 
   // Everything else: only the rays the move changed, for receivers and sources it may stand between.
   auto gather_changed = [&](const std::vector<Source>& others) {
@@ -308,17 +316,23 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   gather_changed(others_direct);
   apply_direct_delta();
   gather_changed(others_reflected);
-  apply_delta();
+  apply_delta(Light::reflected);
 
-  // The object's own receiving points: everything, anew (nothing, if it vanished).
+  // The object's own receiving points: everything, anew (nothing, if it vanished), each kind of
+  // light in place of what it held of it.
   double own_direct_after = direct_on_own();
-  gather_all(on_object, plain, gather_from(sources_of(1.0, nullptr)), kWhole);
   for (int i = o.point_begin; i < o.point_end; ++i) {
-    delta_front[i] -= front[i];
-    delta_back[i] -= back[i];
+    delta_front[i] -= front[i] - reflected_front[i];
+    delta_back[i] -= back[i] - reflected_back[i];
     touched[i] = 1;
   }
-  apply_delta();
+  apply_delta(Light::direct);
+  gather_all(on_object, plain, gather_from(reflected_sources(1.0, nullptr)), kWhole);
+  for (int i = o.point_begin; i < o.point_end; ++i) {
+    delta_front[i] -= reflected_front[i];
+    delta_back[i] -= reflected_back[i];
+  }
+  apply_delta(Light::reflected);
   add_direct_power(own_direct_after - own_direct_before);
   if (!m.visible)  // what it had not sent yet goes with it (after apply_delta, which reflects into it)
     for (int p = o.patch_begin; p < o.patch_end; ++p) unshot[p].fill(dvec3(0.0));

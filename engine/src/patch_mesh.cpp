@@ -71,13 +71,19 @@ std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const Refin
     } else {
       patch.normal = va / patch.area;
     }
+    dvec3 normals[4];
     for (int c = 0; c < 4; ++c) {
       dvec3 n = patch.normal;
       if (!refined.normals.empty() && patch.area > 0) {
         dvec3 smooth = normal_matrix * refined.normals[patch.vertex[c] - obj.vertex_begin];
         if (glm::length(smooth) > 0) n = glm::normalize(smooth);
       }
-      corner_normals.push_back(n);
+      corner_normals.push_back(normals[c] = n);
+    }
+    patch.interior_share = 1.0;
+    if (!refined.normals.empty() && patch.area > 0) {
+      dvec3 corners[4] = {*p[0], *p[1], *p[2], *p[3]};
+      patch.interior_share = interior_share(corners, normals);
     }
   }
   pm.degenerate_patches += obj.degenerate;
@@ -99,6 +105,7 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
     for (int i = pm.point_slot_begin[p]; i < pm.point_slot_begin[p + 1]; ++i) {
       int slot = pm.point_slots[i];
       pm.own_view[slot] = view.own[i - pm.point_slot_begin[p]];
+      pm.onward[slot] = view.onward[i - pm.point_slot_begin[p]];
       const Patch& patch = pm.patches[slot / 4];
       if (patch.area > 0) centre_sum += patch.centre, ++count;
     }
@@ -148,6 +155,7 @@ void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals) {
   for (size_t p = 0; p < pm.points.size(); ++p) pm.point_slot_begin[p + 1] += pm.point_slot_begin[p];
   pm.point_slots.resize(slots);
   pm.own_view.resize(slots);
+  pm.onward.resize(slots);
   std::vector<int> fill(pm.point_slot_begin.begin(), pm.point_slot_begin.end() - 1);
   for (int s = 0; s < slots; ++s) pm.point_slots[fill[slot_point[s]]++] = s;
   place_points(pm, corner_normals.data(), 0, 0, int(pm.points.size()));

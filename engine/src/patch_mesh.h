@@ -19,6 +19,7 @@ struct Patch {
   double area = 0.0;          // zero for degenerate patches: they neither shoot nor receive
   dvec3 normal{0.0};          // unit, front side
   dvec3 centre{0.0};
+  double interior_share = 1.0;  // corner_view.h; 1 unless smooth-shaded
 };
 
 // A receiving point. Corners meeting at a vertex share a point where their normals agree; a crease
@@ -56,6 +57,7 @@ struct PatchMesh {
   // Per slot (patch * 4 + corner), per side: the part of its point's view the patch fills at close
   // range, which the point takes at the corner's radiance (CornerView::own; 0 on flat surfaces).
   std::vector<std::array<double, 2>> own_view;
+  std::vector<double> onward;  // per slot: CornerView::onward
   std::vector<ObjectPatches> objects;  // one per SceneDesc mesh
   int degenerate_patches = 0;
 };

@@ -38,8 +38,7 @@ Solver::Impl::Impl(SceneDesc s, const Settings& st) : scene(std::move(s)), setti
     const ClusterNode& n = tree.nodes[shooters[s]];
     for (int i = n.begin; i < n.end; ++i) patch_shooter[tree.order[i]] = int(s);
   }
-  front.assign(mesh.points.size(), dvec3(0.0));
-  back.assign(mesh.points.size(), dvec3(0.0));
+  for (auto* points : {&front, &back, &reflected_front, &reflected_back}) points->assign(mesh.points.size(), dvec3(0.0));
   CornerUnshot none;
   none.fill(dvec3(0.0));
   unshot.assign(mesh.patches.size(), none);
@@ -59,20 +58,25 @@ void Solver::Impl::mark_hidden(int object) {
   std::fill(hidden_point.begin() + o.point_begin, hidden_point.begin() + o.point_end, !scene.meshes[object].visible);
 }
 
-void Solver::Impl::apply_delta() {
+void Solver::Impl::apply_delta(Light light) {
   patch_power.resize(mesh.patches.size());
 #pragma omp parallel if (mesh.points.size() > 16 * kParallelMinimum)
-  absorb_delta(-1);
+  absorb_delta(-1, light);
 }
 
-void Solver::Impl::absorb_delta(int sent) {
+void Solver::Impl::absorb_delta(int sent, Light light) {
   int points = int(mesh.points.size());
   int patches = int(mesh.patches.size());
   double omega = settings.relaxation;
+  bool reflected = light == Light::reflected;
 #pragma omp for schedule(static) nowait
   for (int i = 0; i < points; ++i) {
     front[i] += delta_front[i];
     back[i] += delta_back[i];
+    if (reflected) {
+      reflected_front[i] += delta_front[i];
+      reflected_back[i] += delta_back[i];
+    }
   }
   // The patches read only the delta: no barrier between the loops.
 #pragma omp for schedule(static) nowait
@@ -86,8 +90,9 @@ void Solver::Impl::absorb_delta(int sent) {
     if (patch.area != 0) {
       const dvec3& rho = material(p).reflectance;
       for (int c = 0; c < 4; ++c) {
-        unshot[p][c * 2 + 0] += rho * delta_front[patch.point[c]];
-        unshot[p][c * 2 + 1] += rho * delta_back[patch.point[c]];
+        dvec3 r = reflected ? mesh.onward[4 * p + c] * rho : rho;
+        unshot[p][c * 2 + 0] += r * delta_front[patch.point[c]];
+        unshot[p][c * 2 + 1] += r * delta_back[patch.point[c]];
       }
     }
     patch_power[p] = unshot_power(unshot[p], patch.area);
@@ -160,7 +165,7 @@ bool Solver::Impl::inject() {
   });
   if (!complete) return false;
   injected_power += landed_power();
-  apply_delta();
+  apply_delta(Light::direct);
   ++stats.shots;
   injected = true;
   return true;
@@ -182,7 +187,7 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power) {
   // tenth of a draft shot's time on two.
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }, true,
-                  [&] { absorb_delta(s); }))
+                  [&] { absorb_delta(s, Light::reflected); }))
     return false;
   power = summed_power();
   ++stats.shots;

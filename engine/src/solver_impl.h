@@ -3,8 +3,10 @@
 //
 // Invariant: front/back hold, per receiving point, everything gathered so far: the direct light of
 // the current lamps, world and emitters, plus every shooter's `shot` radiance (the total it has sent)
-// through the current geometry. `unshot` is what patches reflected and have not sent yet. An update
-// restores the invariant for the changed scene with a few signed gathers; shooting then goes on.
+// through the current geometry; reflected_front/back the part of it the shooters' radiance brought.
+// `unshot` is what patches reflected and have not sent yet: a patch corner reflects rho times its
+// point's direct light plus `onward` (PatchMesh) times its reflected light. An update restores the
+// invariant for the changed scene with a few signed gathers; shooting then goes on.
 #pragma once
 
 #include "radiosity/solver.h"
@@ -41,6 +43,7 @@ struct Solver::Impl {
   mutable ShotCache shot_cache;  // filled as shots are built
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
+  std::vector<dvec3> reflected_front, reflected_back;  // the part of it reflected light brought
   std::vector<CornerUnshot> unshot;    // per patch
   std::vector<CornerUnshot> shot;      // per patch: all it has sent so far
   std::vector<dvec3> delta_front, delta_back;  // a gather in flight, discarded if cancelled
@@ -82,17 +85,19 @@ struct Solver::Impl {
   OcclusionBatch delta_batch(int changed_object = -1) {
     return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed_object);
   }
-  // Adds the gathered delta to the solution and, reflected, to the unshot radiance.
-  void apply_delta();
+  // Adds the gathered delta, of one kind of light, to the solution and, reflected, to the unshot
+  // radiance.
+  enum class Light { direct, reflected };
+  void apply_delta(Light light);
   // apply_delta()'s loops, shared by the threads of the parallel region it is called in (or all on
   // the calling thread outside one), with no barrier. First, shooter `sent` (if any) moves omega
   // times its unshot radiance to what it has shot. Leaves each patch's share of shooter_power() in
   // patch_power, read in the same pass.
-  void absorb_delta(int sent);
+  void absorb_delta(int sent, Light light);
   std::vector<double> patch_power;
   std::vector<double> summed_power() const;  // shooter_power() from patch_power
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
-  void apply_direct_delta();    // apply_delta() for a change of direct light: the residual's scale follows
+  void apply_direct_delta();    // apply_delta() of direct light, for a change of it: the residual's scale follows
   void add_direct_power(double change);  // the residual's scale follows the direct light that lands
 
   // Sources of a gather, `scale` times their strength: everything, or only the shooters `only`

@@ -27,8 +27,8 @@ def relative_rms(a, b):
     return np.sqrt(np.mean((a - b) ** 2)) / np.mean(b)
 
 
-def fresh(state, s, patch_size):
-    scene, ids, _ = changing_room(state, patch_size)
+def fresh(state, s, patch_size, smooth=False):
+    scene, ids, _ = changing_room(state, patch_size, smooth)
     solver = engine.Solver(scene, s)
     solver.solve()
     return values(solver, ids)
@@ -68,28 +68,35 @@ STEPS = [
 ]
 
 
-@pytest.mark.parametrize("preset, threshold, patch_size, bound", [
+@pytest.mark.parametrize("preset, threshold, patch_size, bound, smooth", [
     # The check: the default preset's sampling and threshold (coarser patches to stay quick).
-    ("default", None, 0.35, 0.01),
+    ("default", None, 0.35, 0.01, False),
     # Converged tightly, the two agree far closer. Not exactly: a fresh solve builds the cube's
     # cluster tree anew where the update keeps (and refits) the old one; a one-patch object agrees
     # to 1e-6 (test_single_patch_object_agrees_exactly).
-    ("draft", 1e-4, 0.35, 0.002),
+    ("draft", 1e-4, 0.35, 0.002, False),
+    # A smooth-shaded cube, whose points keep their direct and reflected light apart (a face sends
+    # on more of its reflected light than its corners show: corner_view.h), but not deformed: its
+    # refitted cluster tree then differs from a fresh one in more than the threshold (0.4% for
+    # the cube squashed to 0.6 and shown again as an emitter; exact for the flat cube).
+    ("draft", 1e-4, 0.35, 0.002, True),
 ])
-def test_every_kind_of_change_matches_a_fresh_solve(preset, threshold, patch_size, bound):
+def test_every_kind_of_change_matches_a_fresh_solve(preset, threshold, patch_size, bound, smooth):
     s = settings(preset, threshold)
-    scene, ids, cube = changing_room(ROOM_STATE, patch_size)
+    scene, ids, cube = changing_room(ROOM_STATE, patch_size, smooth)
     solver = engine.Solver(scene, s)
     solver.solve()
     state = dict(ROOM_STATE)
     for name, change, apply in STEPS:
+        if smooth and "cube_scale" in change:
+            continue
         state.update(change)
         apply(solver, cube)
         stats = solver.update()
         assert stats["converged"] and stats["residual"] <= s.threshold, name
         got = values(solver, ids)
         assert np.isfinite(got).all() and got.min() >= 0, name
-        error = relative_rms(got, fresh(state, s, patch_size))
+        error = relative_rms(got, fresh(state, s, patch_size, smooth))
         assert error <= bound, f"{name}: {error:.4%} from a fresh solve"
 
 
@@ -232,7 +239,7 @@ def test_bad_changes_are_refused_and_leave_the_solution():
     solver.set_transform(cube, bad)
     with pytest.raises(ValueError, match="NaN"):
         solver.update()
-    with pytest.raises(ValueError, match="5 positions for 24 vertices"):
+    with pytest.raises(ValueError, match=f"5 positions for {len(cube_positions()[0])} vertices"):
         solver.set_positions(cube, cube_positions()[0][:5])
     solver.set_material(CUBE_MATERIAL, (1.0, 0.5, 0.5))
     with pytest.raises(ValueError, match="reflectance"):
