@@ -12,10 +12,11 @@ constexpr double kFlat = 0.95;  // |vector area| / area: about 18 degrees of spr
 struct Builder {
   const PatchMesh& mesh;
   ClusterTree& tree;
+  int next;  // the next node id: nodes are made depth first
 
   int build(int begin, int end) {
-    int id = int(tree.nodes.size());
-    tree.nodes.emplace_back();
+    int id = next++;
+    tree.nodes[id] = ClusterNode();
     if (end - begin > 1) {
       int mid = split(begin, end);
       int left = build(begin, mid);
@@ -27,8 +28,8 @@ struct Builder {
     return id;
   }
 
-  // Sets the node's bounds and summary from its patches (on a refit, anew: children stay), after
-  // its children's: its second moment is theirs, moved to its centroid.
+  // Sets the node's bounds and summary from its patches, after its children's: its second moment
+  // is theirs, moved to its centroid.
   void summarise(int id, int begin, int end) {
     ClusterNode& node = tree.nodes[id];
     int left = node.left, right = node.right;
@@ -109,8 +110,8 @@ ClusterTree ClusterTree::build(const PatchMesh& mesh) {
   ClusterTree tree;
   tree.order.resize(mesh.patches.size());
   for (size_t i = 0; i < tree.order.size(); ++i) tree.order[i] = int(i);
-  tree.nodes.reserve(2 * mesh.patches.size());
-  Builder builder{mesh, tree};
+  tree.nodes.resize(2 * mesh.patches.size());  // an object's k patches take 2k - 1
+  Builder builder{mesh, tree, 0};
   for (const ObjectPatches& obj : mesh.objects) {
     tree.object_root.push_back(-1);
     if (obj.patch_end > obj.patch_begin) {
@@ -118,13 +119,17 @@ ClusterTree ClusterTree::build(const PatchMesh& mesh) {
       tree.roots.push_back(tree.object_root.back());
     }
   }
+  tree.nodes.resize(builder.next);
   return tree;
 }
 
-void ClusterTree::refit(const PatchMesh& mesh, int object) {
-  Builder builder{mesh, *this};
-  auto [first, last] = object_nodes(object);
-  for (int id = last - 1; id >= first; --id) builder.summarise(id, nodes[id].begin, nodes[id].end);  // children first
+void ClusterTree::rebuild(const PatchMesh& mesh, int object) {
+  int root = object_root.at(object);
+  if (root < 0) return;
+  const ObjectPatches& obj = mesh.objects[object];
+  for (int p = obj.patch_begin; p < obj.patch_end; ++p) order[p] = p;  // as build() starts
+  Builder builder{mesh, *this, root};
+  builder.build(obj.patch_begin, obj.patch_end);
 }
 
 std::pair<int, int> ClusterTree::object_nodes(int object) const {

@@ -32,8 +32,9 @@ struct ClusterTree {
   static ClusterTree build(const PatchMesh& mesh);
   // The coarsest nodes no larger than `radius`: a partition of all patches into shooters.
   std::vector<int> cut(double radius) const;
-  // After an object moved or deformed: its clusters' bounds and summaries anew, same hierarchy.
-  void refit(const PatchMesh& mesh, int object);
+  // After an object moved or deformed: its hierarchy built anew, in the same nodes (a full binary
+  // tree over its patches), as build() would make it there.
+  void rebuild(const PatchMesh& mesh, int object);
   // The object's nodes: ids [first, last).
   std::pair<int, int> object_nodes(int object) const;
 };

@@ -206,15 +206,16 @@ void Solver::Impl::change_material(int index, const Material& m) {
 void Solver::Impl::place(int object, const MeshDesc& m, const RefinedMesh& refined) {
   scene.meshes[object] = m;
   place_object(mesh, object, m, refined);
-  tree.refit(mesh, object);
+  tree.rebuild(mesh, object);  // as a fresh solve would cluster it there: a refit was 0.4% off a curved one
+  cut_shooters();
   vis->move_object(object, mesh, m.visible);
   mark_hidden(object);
 }
 
-void Solver::Impl::forget_shooter(int s) {
-  const ClusterNode& n = tree.nodes[shooters[s]];
+void Solver::Impl::forget_nodes(int node) {
+  const ClusterNode& n = tree.nodes[node];
   std::vector<int> patches(tree.order.begin() + n.begin, tree.order.begin() + n.end);
-  shot_cache.forget(patches, shooters[s], shooters[s] + 2 * (n.end - n.begin) - 1);  // see ClusterTree
+  shot_cache.forget(patches, node, node + 2 * (n.end - n.begin) - 1);  // see ClusterTree::object_nodes
 }
 
 void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMesh& refined) {
@@ -231,13 +232,27 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   Zone zone{before, after};
 
   // The object's own shooters, and those near enough for it to come between their own parts (what
-  // a shooter's samples see of itself is cached, and shapes the light it sends).
-  std::vector<char> own(shooters.size(), 0), near(shooters.size(), 0);
-  for (size_t s = 0; s < shooters.size(); ++s) {
-    const ClusterNode& n = tree.nodes[shooters[s]];
-    own[s] = mesh.patches[tree.order[n.begin]].object == object;
-    near[s] = !own[s] && (overlap({n.centroid, n.radius}, before) || overlap({n.centroid, n.radius}, after));
+  // a shooter's samples see of itself is cached, and shapes the light it sends). Flags per shooter;
+  // the object's are cut anew where it lands, so they are taken again then (the others keep their
+  // nodes, and their order).
+  std::vector<char> own, near;
+  std::vector<int> near_nodes;
+  auto flag_shooters = [&] {
+    own.assign(shooters.size(), 0), near.assign(shooters.size(), 0);
+    for (size_t s = 0; s < shooters.size(); ++s) {
+      const ClusterNode& n = tree.nodes[shooters[s]];
+      own[s] = mesh.patches[tree.order[n.begin]].object == object;
+      near[s] = std::binary_search(near_nodes.begin(), near_nodes.end(), shooters[s]);
+    }
+  };
+  for (int node : shooters) {
+    const ClusterNode& n = tree.nodes[node];
+    if (mesh.patches[tree.order[n.begin]].object != object &&
+        (overlap({n.centroid, n.radius}, before) || overlap({n.centroid, n.radius}, after)))
+      near_nodes.push_back(node);
   }
+  std::sort(near_nodes.begin(), near_nodes.end());
+  flag_shooters();
   auto on_object = [&](int i) { return i >= o.point_begin && i < o.point_end; };
   auto elsewhere = [&](int i) { return !on_object(i); };
   auto plain = [this] { return delta_batch(); };
@@ -256,7 +271,7 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   // gathered apart, direct through apply_direct_delta. (Left out: a near emitter re-sent because
   // the object changed what its samples see of it, a small change.)
   auto emit_own = [&](double sign) {
-    std::vector<Source> emitted = direct_sources(sign, &own);
+    std::vector<Source> emitted = direct_sources(sign, &own);  // `own` as it is at the time
     if (emitted.empty()) return;
     gather_all(elsewhere, plain, gather_from(emitted), kWhole);
     apply_direct_delta();
@@ -276,9 +291,14 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   std::vector<Source> near_before = sources_of(1.0, &near);
   double own_direct_before = direct_on_own();
 
+  // Rays of the changed-ray gathers below come from sources made before the object moved: they
+  // name shooters as they were then.
+  std::vector<char> own_before = own;
   place(object, m, refined);
+  flag_shooters();
+  if (tree.object_root[object] >= 0) forget_nodes(tree.object_root[object]);
   for (size_t s = 0; s < shooters.size(); ++s)
-    if (own[s] || near[s]) forget_shooter(int(s));
+    if (near[s]) forget_nodes(shooters[s]);
 
   // Sent again from where it is (emission only, if it just appeared: it has reflected nothing yet;
   // nothing, if it vanished: what it sent was taken back above, so its totals go now); and a near
@@ -308,7 +328,7 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
                [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
                  long long pushed = batch.rays_pushed();
                  for (const Source& s : others)
-                   if (s.shooter < 0 || !own[s.shooter]) s.gather(i, p, batch, &zone);
+                   if (s.shooter < 0 || !own_before[s.shooter]) s.gather(i, p, batch, &zone);
                  if (batch.rays_pushed() > pushed) touched[i] = 1;
                },
                kWhole);

@@ -32,12 +32,7 @@ Solver::Impl::Impl(SceneDesc s, const Settings& st) : scene(std::move(s)), setti
   hidden_point.assign(mesh.points.size(), 0);
   for (size_t o = 0; o < scene.meshes.size(); ++o) mark_hidden(int(o));
 
-  shooters = tree.cut(settings.shooter_size_relative * mesh.diagonal);
-  patch_shooter.assign(mesh.patches.size(), -1);
-  for (size_t s = 0; s < shooters.size(); ++s) {
-    const ClusterNode& n = tree.nodes[shooters[s]];
-    for (int i = n.begin; i < n.end; ++i) patch_shooter[tree.order[i]] = int(s);
-  }
+  cut_shooters();
   for (auto* points : {&front, &back, &reflected_front, &reflected_back}) points->assign(mesh.points.size(), dvec3(0.0));
   CornerUnshot none;
   none.fill(dvec3(0.0));
@@ -46,11 +41,20 @@ Solver::Impl::Impl(SceneDesc s, const Settings& st) : scene(std::move(s)), setti
 
   stats.patches = int(mesh.patches.size());
   stats.points = int(mesh.points.size());
-  stats.shooters = int(shooters.size());
   if (mesh.patches.empty()) stats.warnings.push_back("the scene has no geometry: nothing to light");
   if (mesh.degenerate_patches > 0)
     stats.warnings.push_back(std::to_string(mesh.degenerate_patches) +
                              " degenerate (zero-area) patches were left out");
+}
+
+void Solver::Impl::cut_shooters() {
+  shooters = tree.cut(settings.shooter_size_relative * mesh.diagonal);
+  patch_shooter.assign(mesh.patches.size(), -1);
+  for (size_t s = 0; s < shooters.size(); ++s) {
+    const ClusterNode& n = tree.nodes[shooters[s]];
+    for (int i = n.begin; i < n.end; ++i) patch_shooter[tree.order[i]] = int(s);
+  }
+  stats.shooters = int(shooters.size());
 }
 
 void Solver::Impl::mark_hidden(int object) {

@@ -40,6 +40,7 @@ struct Solver::Impl {
   std::unique_ptr<Visibility> vis;
   std::vector<int> shooters;       // cluster nodes
   std::vector<int> patch_shooter;  // patch -> index in shooters
+  void cut_shooters();             // both, from the tree as it is
   mutable ShotCache shot_cache;  // filled as shots are built
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
@@ -127,7 +128,7 @@ struct Solver::Impl {
   void change_object(int object, const MeshDesc& mesh, const RefinedMesh& refined);
   std::vector<char> touched;  // per point: its light was recomputed by this update
   void place(int object, const MeshDesc& mesh, const RefinedMesh& refined);  // geometry only
-  void forget_shooter(int s);  // its cached views of itself
+  void forget_nodes(int node);  // the cached views of itself of the subtree from `node`
 
   // Outgoing front radiance at a patch corner; with `near`, with near_direct_correction.
   dvec3 corner_value(int slot, bool near) const;

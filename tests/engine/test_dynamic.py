@@ -71,15 +71,13 @@ STEPS = [
 @pytest.mark.parametrize("preset, threshold, patch_size, bound, smooth", [
     # The check: the default preset's sampling and threshold (coarser patches to stay quick).
     ("default", None, 0.35, 0.01, False),
-    # Converged tightly, the two agree far closer. Not exactly: a fresh solve builds the cube's
-    # cluster tree anew where the update keeps (and refits) the old one; a one-patch object agrees
-    # to 1e-6 (test_single_patch_object_agrees_exactly).
-    ("draft", 1e-4, 0.35, 0.002, False),
+    # Converged tightly, the two agree far closer (within 1e-4 measured). A moved object's cluster
+    # tree is built anew where it lands, as a fresh solve builds it: refitted, it kept the update
+    # 0.1-0.2% from a fresh solve, 0.4-1% for the smooth cube once deformed.
+    ("draft", 1e-4, 0.35, 3e-4, False),
     # A smooth-shaded cube, whose points keep their direct and reflected light apart (a face sends
-    # on more of its reflected light than its corners show: corner_view.h), but not deformed: its
-    # refitted cluster tree then differs from a fresh one in more than the threshold (0.4% for
-    # the cube squashed to 0.6 and shown again as an emitter; exact for the flat cube).
-    ("draft", 1e-4, 0.35, 0.002, True),
+    # on more of its reflected light than its corners show: corner_view.h).
+    ("draft", 1e-4, 0.35, 3e-4, True),
 ])
 def test_every_kind_of_change_matches_a_fresh_solve(preset, threshold, patch_size, bound, smooth):
     s = settings(preset, threshold)
@@ -88,8 +86,6 @@ def test_every_kind_of_change_matches_a_fresh_solve(preset, threshold, patch_siz
     solver.solve()
     state = dict(ROOM_STATE)
     for name, change, apply in STEPS:
-        if smooth and "cube_scale" in change:
-            continue
         state.update(change)
         apply(solver, cube)
         stats = solver.update()
