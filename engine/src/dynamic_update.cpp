@@ -291,8 +291,8 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   std::vector<Source> near_before = sources_of(1.0, &near);
   double own_direct_before = direct_on_own();
 
-  // Rays of the changed-ray gathers below come from sources made before the object moved: they
-  // name shooters as they were then.
+  // The changed-ray gathers below use sources made before the move, which name shooters by their
+  // index in the cut of then.
   std::vector<char> own_before = own;
   place(object, m, refined);
   flag_shooters();
