@@ -132,11 +132,9 @@ void ClusterTree::rebuild(const PatchMesh& mesh, int object) {
   builder.build(obj.patch_begin, obj.patch_end);
 }
 
-std::pair<int, int> ClusterTree::object_nodes(int object) const {
-  int root = object_root.at(object);
-  if (root < 0) return {0, 0};
+int ClusterTree::subtree_end(int node) const {
   // Nodes are made depth first, so a subtree of k patches is the 2k - 1 nodes from its root.
-  return {root, root + 2 * (nodes[root].end - nodes[root].begin) - 1};
+  return node + 2 * (nodes[node].end - nodes[node].begin) - 1;
 }
 
 std::vector<int> ClusterTree::cut(double radius) const {

@@ -6,7 +6,6 @@
 #include "patch_mesh.h"
 #include "radiosity/form_factor.h"
 
-#include <utility>
 #include <vector>
 
 namespace radiosity {
@@ -35,8 +34,8 @@ struct ClusterTree {
   // After an object moved or deformed: its hierarchy built anew, in the same nodes (a full binary
   // tree over its patches), as build() would make it there.
   void rebuild(const PatchMesh& mesh, int object);
-  // The object's nodes: ids [first, last).
-  std::pair<int, int> object_nodes(int object) const;
+  // The nodes of the subtree from `node`: ids [node, end).
+  int subtree_end(int node) const;
 };
 
 }  // namespace radiosity

@@ -215,7 +215,7 @@ void Solver::Impl::place(int object, const MeshDesc& m, const RefinedMesh& refin
 void Solver::Impl::forget_nodes(int node) {
   const ClusterNode& n = tree.nodes[node];
   std::vector<int> patches(tree.order.begin() + n.begin, tree.order.begin() + n.end);
-  shot_cache.forget(patches, node, node + 2 * (n.end - n.begin) - 1);  // see ClusterTree::object_nodes
+  shot_cache.forget(patches, node, tree.subtree_end(node));
 }
 
 void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMesh& refined) {
