@@ -16,9 +16,11 @@ struct Facet {
   double azimuth = 0.0, width = 0.0;  // the corner's angle, projected on the point's tangent plane
 };
 
-// The part of the cosine-weighted hemisphere about `shading` above the facet: (1 + cos tilt) / 2.
-double share_above(const Facet& f, const dvec3& shading) {
-  return f.normal == dvec3(0.0) ? 1.0 : 0.5 * (1.0 + std::clamp(glm::dot(f.normal, shading), -1.0, 1.0));
+// The part of the cosine-weighted hemisphere about `shading` above a facet of normal `facet`
+// (neither need be unit; 1 if either is zero): (1 + cos tilt) / 2.
+double share_above(const dvec3& facet, const dvec3& shading) {
+  double lengths = glm::length(facet) * glm::length(shading);
+  return lengths > 0 ? 0.5 * (1.0 + std::clamp(glm::dot(facet, shading) / lengths, -1.0, 1.0)) : 1.0;
 }
 
 }  // namespace
@@ -32,10 +34,8 @@ double interior_share(const dvec3 corner[4], const dvec3 normal[4]) {
       double u = (i + 0.5) / k, v = (j + 0.5) / k;
       dvec3 du = (1 - v) * (corner[1] - corner[0]) + v * (corner[2] - corner[3]);
       dvec3 dv = (1 - u) * (corner[3] - corner[0]) + u * (corner[2] - corner[1]);
-      dvec3 facet = glm::cross(du, dv);
       dvec3 shading = (1 - u) * (1 - v) * normal[0] + u * (1 - v) * normal[1] + u * v * normal[2] + (1 - u) * v * normal[3];
-      double lengths = glm::length(facet) * glm::length(shading);
-      sum += lengths > 0 ? 0.5 * (1.0 + std::clamp(glm::dot(facet, shading) / lengths, -1.0, 1.0)) : 1.0;
+      sum += share_above(glm::cross(du, dv), shading);
     }
   return sum / (k * k);
 }
@@ -72,7 +72,7 @@ CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, i
     f.width = std::fmod(azimuth(prev) - f.azimuth + 4 * M_PI, 2 * M_PI);
     const dvec3& shading = corner_normal[slot - first_slot];
     smooth |= shading != patch.normal;
-    double share = shading == patch.normal ? 1.0 : share_above(f, shading);
+    double share = shading == patch.normal ? 1.0 : share_above(f.normal, shading);
     share_sum += share;
     view.onward[i - begin] = share > 0 ? patch.interior_share / share : 1.0;
     live.push_back(i - begin);

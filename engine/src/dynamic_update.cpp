@@ -235,20 +235,19 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   // a shooter's samples see of itself is cached, and shapes the light it sends). Flags per shooter;
   // the object's are cut anew where it lands, so they are taken again then (the others keep their
   // nodes, and their order).
+  auto on_it = [&](int node) { return mesh.patches[tree.order[tree.nodes[node].begin]].object == object; };
   std::vector<char> own, near;
   std::vector<int> near_nodes;
   auto flag_shooters = [&] {
     own.assign(shooters.size(), 0), near.assign(shooters.size(), 0);
     for (size_t s = 0; s < shooters.size(); ++s) {
-      const ClusterNode& n = tree.nodes[shooters[s]];
-      own[s] = mesh.patches[tree.order[n.begin]].object == object;
+      own[s] = on_it(shooters[s]);
       near[s] = std::binary_search(near_nodes.begin(), near_nodes.end(), shooters[s]);
     }
   };
   for (int node : shooters) {
     const ClusterNode& n = tree.nodes[node];
-    if (mesh.patches[tree.order[n.begin]].object != object &&
-        (overlap({n.centroid, n.radius}, before) || overlap({n.centroid, n.radius}, after)))
+    if (!on_it(node) && (overlap({n.centroid, n.radius}, before) || overlap({n.centroid, n.radius}, after)))
       near_nodes.push_back(node);
   }
   std::sort(near_nodes.begin(), near_nodes.end());
