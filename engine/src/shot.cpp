@@ -389,9 +389,10 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
 // Starts the exact integration of a cell. Where the receiver's surface stands on the cell's patch
 // (a box on the floor) it divides the patch: the cell's centre sees only patch corners on its own
 // side of the receiver's plane, and the part of the cell on the other side is lit by the corners
-// there. Where the centre sees corners on both sides, something else divides the patch (a wall
-// between two rooms) and the centre's view holds for the whole cell. (Not caught: a wall parallel
-// to the receiver's surface, less than a patch from it, over a patch that also runs under both.)
+// there that it sees (a wall between it and them, over a patch that runs under both, would let the
+// next room's light onto the strip between box and wall). Where the centre sees corners on both
+// sides, something else divides the patch (a wall between two rooms) and the centre's view holds
+// for the whole cell.
 void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot& shot, const ShotCell& sc, int side,
                 OcclusionBatch& batch) {
   const ShotPatch& patch = shot.patches[sc.patch];
@@ -399,18 +400,29 @@ void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot& shot, 
   NearLight light{patch, side, {seen, seen}, shot};
   if (seen != 15) {
     double tolerance = 1e-9 * sc.cell.radius;
+    double h[4];
     bool above = false, below = false;
-    for (const dvec3& q : sc.cell.corners) {
-      double h = glm::dot(n, q - x);
-      above |= h > tolerance;
-      below |= h < -tolerance;
+    for (int c = 0; c < 4; ++c) {
+      h[c] = glm::dot(n, sc.cell.corners[c] - x);
+      above |= h[c] > tolerance;
+      below |= h[c] < -tolerance;
     }
     uint8_t front = 0;
     for (int c = 0; c < 4; ++c) front |= (glm::dot(n, patch.corner[c] - x) > 0) << c;
     uint8_t back = 15 & ~front;
+    auto seen_from_part = [&](int part, uint8_t corners) {
+      double u, v;
+      part_centroid({sc.cell, sc.u0, sc.v0, sc.size}, h, part, u, v);
+      dvec3 m = side == 0 ? sc.cell.normal : -sc.cell.normal;
+      dvec3 y = bilinear(patch.corner, u, v);
+      uint8_t sees = 0;
+      for (int c = 0; c < 4; ++c)
+        if ((corners & (1 << c)) && batch.visibility().connected(y, m, patch.corner[c], m)) sees |= 1 << c;
+      return sees;
+    };
     if (above && below && front && back && seen) {
-      if ((seen & ~front) == 0) light.corners[1] = back;
-      if ((seen & ~back) == 0) light.corners[0] = front;
+      if ((seen & ~front) == 0) light.corners[1] = seen_from_part(1, back);
+      if ((seen & ~back) == 0) light.corners[0] = seen_from_part(0, front);
     }
   }
   bool lit = patch.piece != nullptr;  // it may light a piece its corners leave dark

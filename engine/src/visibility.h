@@ -125,6 +125,7 @@ class OcclusionBatch {
   void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
                    const dvec3& irradiance);
   void flush();
+  const Visibility& visibility() const { return vis_; }
   long long rays_traced() const { return traced_; }
   long long rays_pushed() const { return pushed_; }
 
