@@ -390,15 +390,19 @@ class BakeJob:
 
 
 # ----------------------------------------------------------------------------- estimate
-# Calibrated on sample_blends/cornell_box (draft: 1,871 points, 3.9 M rays, 7.8 s; default: 6,863 points,
-# 87 M rays, 31 s; subsurf_room default: 7,037 points, 198 M rays, 40 s; 2 cores):
+# Calibrated on the sample scenes (2026-12-02, 2 cores, points / rays / seconds measured): Cornell box
+# draft 1,871 / 4 M / 0.5 s, default 6,863 / 88 M / 6.4 s, high 26,255 / 710 M / 52 s; subsurf room
+# draft 1,957 / 10 M / 0.8 s, default 7,037 / 196 M / 11.5 s; animated room draft 1,859 / 8 M / 1.0 s,
+# default 6,939 / 172 M / 17 s. The estimates land within 0.5-2.4x of these (the constants before
+# these, fitted on an older engine, put a draft bake at 5-15 times what it took).
 #   points  ~ POINTS_PER_PATCH_AREA * surface area / patch_size^2
-#   rays    ~ points * (samples_direct + samples_indirect) * RAYS_FACTOR
-#   seconds ~ SECONDS_PER_POINT * points + SECONDS_PER_RAY * rays
-POINTS_PER_PATCH_AREA = 2.5
-RAYS_FACTOR = 200.0
-SECONDS_PER_POINT = 4.0e-3
-SECONDS_PER_RAY = 3.3e-8
+#   rays    ~ points * samples_indirect * ln(1 / threshold) * RAYS_FACTOR: reflected shots, which go on
+#             until the threshold, trace most rays (111-277 per point, indirect sample and e-fold)
+#   seconds ~ SECONDS_PER_POINT * points + SECONDS_PER_RAY * rays (8-17 M rays/s)
+POINTS_PER_PATCH_AREA = 3.0
+RAYS_FACTOR = 180.0
+SECONDS_PER_POINT = 5.0e-5
+SECONDS_PER_RAY = 7.7e-8
 
 
 def scene_measure(scene):
@@ -433,5 +437,5 @@ def estimate(props, scene):
         return 0, 0, 0.0
     patch = props.patch_size_relative * diag
     points = POINTS_PER_PATCH_AREA * area / (patch * patch)
-    rays = points * (props.samples_direct + props.samples_indirect) * RAYS_FACTOR
+    rays = points * props.samples_indirect * math.log(1.0 / min(props.threshold, 0.5)) * RAYS_FACTOR
     return int(points), int(rays), SECONDS_PER_POINT * points + SECONDS_PER_RAY * rays
