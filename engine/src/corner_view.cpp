@@ -74,7 +74,11 @@ CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, i
     smooth |= shading != patch.normal;
     double share = shading == patch.normal ? 1.0 : share_above(f.normal, shading);
     share_sum += share;
-    view.onward[i - begin] = share > 0 ? patch.interior_share / share : 1.0;
+    // A corner whose shading normal turns more than a right angle from its facet (a mesh whose faces
+    // disagree on which side is the front) keeps a share below a half: divided by it, what the point
+    // takes at close range without the share (own) would be sent on many times over, and the solve
+    // diverged to inf.
+    view.onward[i - begin] = patch.interior_share / std::max(share, 0.5);
     live.push_back(i - begin);
   }
   if (live.empty()) return view;

@@ -201,6 +201,29 @@ def test_bad_input_raises_value_error():
         engine.Settings.preset("ultra")
 
 
+@pytest.mark.parametrize("level", [1, 2])
+def test_a_smooth_mesh_whose_faces_disagree_on_the_front_stays_finite(level):
+    # Found by fuzzing: a triangle and two quads, two of them naming a shared edge in the same
+    # direction. Some limit normals turn more than a right angle from their facets; sending on the
+    # reflected light divided by those facets' shares (corner_view.h) made the solve diverge: NaN
+    # residual, inf radiance, and two million shots (128 s) to the shot limit.
+    positions = np.array([[-15.93, 19.78, 1.31], [-9.66, -25.83, -8.50], [0.27, -9.11, 42.75],
+                          [33.26, -89.57, -62.41], [-5.77, -13.95, 7.06]])
+    scene = engine.Scene()
+    m = scene.add_material((0.5, 0.5, 0.5))
+    obj = scene.add_mesh(positions, np.array([3, 4, 4], np.int32),
+                         np.array([2, 1, 3, 4, 1, 2, 0, 0, 4, 3, 1], np.int32), np.zeros(3, np.int32),
+                         refine="catmull_clark", level=level)
+    scene.add_point_light((-7.96, 66.2, -76.47), (8.5, 1.2, 7.3), 0.094)
+    settings = engine.Settings.preset("draft")
+    settings.max_shots = 5000
+    solver = engine.Solver(scene, settings)
+    stats = solver.solve()
+    assert stats["converged"] and stats["residual"] <= settings.threshold
+    radiance = solver.corner_radiance(obj)
+    assert np.isfinite(radiance).all() and (radiance >= 0).all() and radiance.max() > 0
+
+
 def test_catmull_clark_refines_onto_the_limit_surface():
     scene = engine.Scene()
     m = scene.add_material((0.5, 0.5, 0.5))
