@@ -348,6 +348,8 @@ class BakeJob:
             if st is None:
                 return None
             self.stats = st
+            if st.get("diverged"):   # its colours would be garbage: keep the old ones
+                raise BakeError(str(st["warnings"][-1]))
             # Shots, rays and warnings add up over a Solver's life: keep this job's share.
             before = self.base.stats if self.incremental else {}
             self.rays = max(0, int(st.get("rays", 0)) - int(st.pop("rays_before", 0)))

@@ -54,6 +54,7 @@ py::dict stats_dict(const SolveStats& s) {
   d["points"] = s.points;
   d["shooters"] = s.shooters;
   d["converged"] = s.converged;
+  d["diverged"] = s.diverged;
   d["cancelled"] = s.cancelled;
   d["warnings"] = s.warnings;
   d["touched_points"] = s.touched_points;

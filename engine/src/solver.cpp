@@ -19,6 +19,7 @@ double unshot_power(const CornerUnshot& unshot, double area) {
   return 0.25 * area * sum;
 }
 constexpr double kProgressInterval = 0.05;  // seconds between progress callbacks
+constexpr double kDiverged = 10.0;  // growth of the residual past which shooting cannot be converging
 
 }  // namespace
 
@@ -202,6 +203,8 @@ void Solver::Impl::propagate(const ProgressCallback& progress) {
   auto last_report = std::chrono::steady_clock::now();
   long first_shot = stats.shots;
   std::vector<double> power = shooter_power();  // then kept up to date by each shot
+  double limit = 0.0;  // the residual past which this cannot be converging
+  stats.diverged = false;
   for (;;) {
     double total = 0.0;
     for (double p : power) total += p;
@@ -211,6 +214,18 @@ void Solver::Impl::propagate(const ProgressCallback& progress) {
       break;
     }
     stats.converged = false;
+    // Reflectance below one lets shooting only shrink the unshot light, but for what over-relaxation
+    // overshoots. It grows where the rays' offset (a 1e-5 part of the scene's size) is not small
+    // against the patches: points of a tiny crumpled object far from the rest then see each other
+    // with no ray between, and without this stop the solve ran to inf and NaN.
+    if (limit == 0) limit = kDiverged * std::max(1.0, stats.residual);
+    if (!(stats.residual <= limit)) {
+      stats.diverged = true;
+      stats.warnings.push_back("the solve diverged (unshot light grew to " + std::to_string(stats.residual) +
+                               " times the light put in): some objects are too small for the scene's size to be "
+                               "ray traced apart (the ray offset is 1e-5 of the scene's diagonal)");
+      break;
+    }
     if (stats.shots - first_shot >= settings.max_shots) {
       stats.warnings.push_back("stopped at the shot limit before converging");
       break;

@@ -224,6 +224,33 @@ def test_a_smooth_mesh_whose_faces_disagree_on_the_front_stays_finite(level):
     assert np.isfinite(radiance).all() and (radiance >= 0).all() and radiance.max() > 0
 
 
+def test_a_solve_that_diverges_stops_and_says_so():
+    # Found by fuzzing: a crumpled Catmull-Clark object 7 cm across, 2.5 km from a 1 cm quad. The
+    # ray offset (1e-5 of the scene's size, 3 cm) is as large as the object, so its points see each
+    # other with no ray between and the unshot light grows; the solve ran on to 1e46 and inf.
+    positions = np.array([[0.005069, -0.003808, -0.007053], [0.009679, -0.009473, 0.002181],
+                          [-0.00912, -4.8e-05, -0.005745], [0.015235, 0.002068, 0.002013],
+                          [0.022331, -0.036548, -0.013566], [-0.034651, 0.000704, 0.006438],
+                          [0.009067, 0.004177, -0.01062], [0.02335, 0.004573, -0.00278],
+                          [-0.013946, 0.005996, -0.005834]])
+    faces = [[1, 6, 5, 0], [4, 6, 1, 1, 7], [5, 7, 3], [4, 2, 1, 8, 6], [6, 0, 2, 3], [4, 2, 7, 7], [2, 6, 7, 0, 4]]
+    scene = engine.Scene()
+    m = scene.add_material((0.5, 0.5, 0.5))
+    crumpled = scene.add_mesh(positions, np.array([len(f) for f in faces], np.int32),
+                              np.array(sum(faces, []), np.int32), np.zeros(len(faces), np.int32),
+                              refine="catmull_clark", level=2)
+    far = Mesh()
+    far.add_face([(-836, -1716, 1812), (-835.99, -1716, 1812), (-835.99, -1715.99, 1812), (-836, -1715.99, 1812)], m)
+    far.add_to(scene)
+    scene.set_world((0.5, 0.5, 0.5))
+    settings = engine.Settings.preset("draft")
+    solver = engine.Solver(scene, settings)
+    stats = solver.solve()
+    assert stats["diverged"] and not stats["converged"] and stats["shots"] < 200
+    assert "diverged" in stats["warnings"][-1]
+    assert np.isfinite(solver.corner_radiance(crumpled)).all()
+
+
 def test_catmull_clark_refines_onto_the_limit_surface():
     scene = engine.Scene()
     m = scene.add_material((0.5, 0.5, 0.5))

@@ -21,6 +21,8 @@ struct SolveStats {
   long long touched_points = 0;  // last update(): receiving points whose light was recomputed
   bool converged = false;
   bool cancelled = false;
+  bool diverged = false;     // the unshot light grew tenfold: the scene is beyond what the engine
+                             // resolves (a warning says why); the solve stopped there
   std::vector<std::string> warnings;  // e.g. no light, degenerate faces dropped
 };
 
