@@ -25,11 +25,21 @@ inline bool may_cross(const dvec3& x, const Sphere& target, const Sphere& s) {
   return glm::length(x + t * ab - s.centre) <= s.radius + target.radius;
 }
 
+// Whether the ray origin + t dir, t in [0, t_max], passes through `s`.
+inline bool ray_crosses(const dvec3& origin, const dvec3& dir, double t_max, const Sphere& s) {
+  double len2 = glm::dot(dir, dir);
+  double t = len2 > 0 ? std::clamp(glm::dot(s.centre - origin, dir) / len2, 0.0, t_max) : 0.0;
+  return glm::length(origin + t * dir - s.centre) <= s.radius;
+}
+
 // Where a moved object was and is: rays that pass through neither did not change.
 struct Zone {
   Sphere before, after;
   bool may_cross(const dvec3& x, const Sphere& target) const {
     return radiosity::may_cross(x, target, before) || radiosity::may_cross(x, target, after);
+  }
+  bool crossed_by(const dvec3& origin, const dvec3& dir, double t_max) const {
+    return ray_crosses(origin, dir, t_max, before) || ray_crosses(origin, dir, t_max, after);
   }
 };
 

@@ -323,7 +323,7 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
 
   // Everything else: only the rays the move changed, for receivers and sources it may stand between.
   auto gather_changed = [&](const std::vector<Source>& others) {
-    gather_all(elsewhere, [&] { return delta_batch(object); },
+    gather_all(elsewhere, [&] { return changed_batch(object, zone); },
                [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
                  long long pushed = batch.rays_pushed();
                  for (const Source& s : others)

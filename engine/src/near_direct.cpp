@@ -55,7 +55,7 @@ std::array<dvec3, 2> Solver::Impl::direct_at(const dvec3& y, const dvec3& normal
   // Gathered under an index past every receiving point: no patch takes it for one of its corners.
   int slot = int(mesh.points.size());
   std::array<dvec3, 2> h{dvec3(0.0), dvec3(0.0)};
-  OcclusionBatch batch(*vis, &h[0], &h[1], -1, slot);
+  OcclusionBatch batch(*vis, &h[0], &h[1], slot);
   for (const Source& s : near_direct->sources) s.gather(slot, {y, normal}, batch);
   batch.flush();
   return h;
@@ -170,7 +170,7 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
     int i = wanted[k];
     for (const NearDetail* d : details[k]) {
       dvec3 h[2] = {dvec3(0.0), dvec3(0.0)};
-      OcclusionBatch batch(*vis, &h[0], &h[1], -1, i);
+      OcclusionBatch batch(*vis, &h[0], &h[1], i);
       gather(d->interpolated, i, mesh.points[i], batch);
       gather(d->exact, i, mesh.points[i], batch);
       batch.flush();

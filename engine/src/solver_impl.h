@@ -82,9 +82,11 @@ struct Solver::Impl {
   bool gather_all(Gather&& gather_one) {
     return gather_all([](int) { return true; }, [this] { return delta_batch(); }, gather_one);
   }
-  // A batch adding into delta_* (with `changed_object`: only what its move changed).
-  OcclusionBatch delta_batch(int changed_object = -1) {
-    return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed_object);
+  // A batch adding into delta_*.
+  OcclusionBatch delta_batch() { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); }
+  // One adding only what the last move of `changed_object`, within `zone`, changed.
+  OcclusionBatch changed_batch(int changed_object, const Zone& zone) {
+    return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed_object, zone);
   }
   // Adds the gathered delta, of one kind of light, to the solution and, reflected, to the unshot
   // radiance.

@@ -2,6 +2,7 @@
 // move is a transform update), and occlusion rays traced in batches.
 #pragma once
 
+#include "bounds.h"
 #include "patch_mesh.h"
 
 #include <embree3/rtcore.h>
@@ -89,13 +90,16 @@ class Visibility {
 //
 // With `changed_object`, a batch carries only what that object's last move changed: a ray counts
 // with + if the object blocked it before and not now, - if the reverse, and only if nothing else
-// blocks it; a ray the object blocks both times, or neither, costs no trace of the full scene.
+// blocks it; a ray the object blocks both times, or neither, costs no trace of the full scene, and
+// one that passes through neither of the object's bounding spheres (`zone`) no trace at all.
 class OcclusionBatch {
  public:
   // The accumulators hold receivers from `first_receiver` on: points that are not receiving points
   // (pieces of a patch) gather under indices past the last one, into arrays of their own.
-  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object = -1, int first_receiver = 0)
-      : vis_(vis), front_(front), back_(back), changed_object_(changed_object), first_(first_receiver) {}
+  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int first_receiver = 0)
+      : vis_(vis), front_(front), back_(back), first_(first_receiver) {}
+  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object, const Zone& zone)
+      : vis_(vis), front_(front), back_(back), changed_object_(changed_object), zone_(&zone) {}
   ~OcclusionBatch() { flush(); }
 
   // Segment from receiver point x (normal n) to target y, carrying `irradiance` to the receiver's
@@ -136,6 +140,7 @@ class OcclusionBatch {
   dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver - first_]; }
   void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
     ++pushed_;
+    if (zone_ && !zone_->crossed_by(origin, dir, tfar)) return;
     rays_[count_] = make_ray(origin, dir, tfar);
     into_[count_] = into;
     carried_[count_] = irradiance;
@@ -147,8 +152,9 @@ class OcclusionBatch {
   const Visibility& vis_;
   dvec3* front_;
   dvec3* back_;
-  int changed_object_;
-  int first_;
+  int changed_object_ = -1;
+  const Zone* zone_ = nullptr;
+  int first_ = 0;
   std::array<double, 2> share_{1.0, 1.0};
   RTCRay rays_[kCapacity];
   dvec3* into_[kCapacity];  // the accumulator (receiver and side) each ray adds to
