@@ -80,7 +80,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   if (!injected)
     solve(progress);
   else
-    propagate(progress);
+    propagate(progress, Sampling::full);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return stats;
 }

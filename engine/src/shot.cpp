@@ -179,10 +179,11 @@ void ShotCache::forget(const std::vector<int>& patches, int node_begin, int node
     for (int side = 0; side < 2; ++side) member.erase(member_key(node, side));
 }
 
-Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, ShotCache* cache,
-                  int node, const std::vector<CornerUnshot>& unshot, int samples, double scale,
-                  double near_factor) {
-  // Frontier: split the widest cluster until there are `samples` of them or only patches remain.
+namespace {
+
+// The subtree's clusters where every receiver starts: the widest split until there are `samples`
+// of them or only patches remain.
+std::vector<int> frontier_of(const ClusterTree& tree, int node, int samples) {
   std::vector<int> frontier{node};
   for (;;) {
     if (int(frontier.size()) >= samples) break;
@@ -196,7 +197,17 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
     frontier[widest] = n.left;
     frontier.push_back(n.right);
   }
+  return frontier;
+}
+
+}  // namespace
+
+Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, ShotCache* cache,
+                  int node, const std::vector<CornerUnshot>& unshot, int samples, double scale,
+                  double near_factor, int far_samples) {
+  std::vector<int> frontier = frontier_of(tree, node, samples);
   int cells_per_side = std::max(1, int(std::ceil(std::sqrt(double(samples) / frontier.size()))));
+  if (far_samples < samples) frontier = frontier_of(tree, node, std::max(1, far_samples));
 
   Shot shot;
   // Sized up front: growing them copied every element and cell already built, several times a shot.

@@ -90,9 +90,11 @@ struct ShotCache {
 
 // The shot of cluster `node`, sending `scale` times its patches' unshot radiance. With `vis`, a
 // sample's radiance comes only from the corners / patches it sees (no light leaks under walls).
+// `far_samples` (fewer than `samples`) starts receivers at fewer, larger clusters: a distant
+// receiver takes that many samples, a near one descends to the same cells as at `samples`.
 Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, ShotCache* cache,
-                  int node,
-                  const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor);
+                  int node, const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor,
+                  int far_samples = INT32_MAX);
 
 // Appends `patch` and its k x k `cells` (in bilinear_cells' order) to the shot. A cell is lit, per
 // side, by the patch corners its centre sees: `seen[side]` holds a bit per corner for each cell, or

@@ -115,8 +115,12 @@ struct Solver::Impl {
 
   bool inject();
   std::vector<double> shooter_power() const;
-  bool shoot(int s, std::vector<double>& power);  // power: shooter_power() after the shot
-  void propagate(const ProgressCallback& progress);  // shoots until the residual is below threshold
+  // How reflected shots sample distant receivers: fewer samples for less light (a solve), or
+  // always samples_indirect (an update).
+  enum class Sampling { by_power, full };
+  int far_samples(double power, Sampling sampling) const;  // for a shot of shooter power `power`
+  bool shoot(int s, std::vector<double>& power, Sampling sampling);  // power: shooter_power() after the shot
+  void propagate(const ProgressCallback& progress, Sampling sampling);  // shoots until the residual is below threshold
   const SolveStats& solve(const ProgressCallback& progress);
 
   // dynamic_update.cpp

@@ -8,6 +8,8 @@ namespace radiosity {
 
 struct Settings {
   // Micro-elements (one visibility ray each) per shot: emitters and lamps first, reflected light after.
+  // A reflected shot carrying less than an even share of the light put in takes fewer, down to one
+  // (Solver::Impl::shot_samples).
   int samples_direct = 64;
   int samples_indirect = 16;
   // Bilinear objects without their own patch size are split to this fraction of the scene diagonal.
