@@ -9,6 +9,24 @@ namespace {
 
 constexpr double kFlat = 0.95;  // |vector area| / area: about 18 degrees of spread
 
+// The point of a bilinear patch nearest `target`: Gauss-Newton in (u, v), kept on the patch
+// (exact in one step on a parallelogram).
+dvec3 nearest_point(const dvec3 c[4], const dvec3& target) {
+  double u = 0.5, v = 0.5;
+  for (int step = 0; step < 4; ++step) {
+    dvec3 du = (1 - v) * (c[1] - c[0]) + v * (c[2] - c[3]);
+    dvec3 dv = (1 - u) * (c[3] - c[0]) + u * (c[2] - c[1]);
+    dvec3 r = target - bilinear(c, u, v);
+    double a = glm::dot(du, du), b = glm::dot(du, dv), d = glm::dot(dv, dv);
+    double det = a * d - b * b;
+    if (!(det > 0)) break;
+    double e = glm::dot(du, r), f = glm::dot(dv, r);
+    u = std::clamp(u + (d * e - b * f) / det, 0.0, 1.0);
+    v = std::clamp(v + (a * f - b * e) / det, 0.0, 1.0);
+  }
+  return bilinear(c, u, v);
+}
+
 struct Builder {
   const PatchMesh& mesh;
   ClusterTree& tree;
@@ -51,6 +69,10 @@ struct Builder {
       if (d < nearest) nearest = d, node.anchor = tree.order[i];
       for (int v : p.vertex) node.radius = std::max(node.radius, glm::length(mesh.vertices[v] - node.centroid));
     }
+    const Patch& anchor = mesh.patches[node.anchor];
+    dvec3 corners[4];
+    for (int c = 0; c < 4; ++c) corners[c] = mesh.vertices[anchor.vertex[c]];
+    node.aim = nearest_point(corners, node.centroid);
     node.flat = glm::length(node.vector_area) >= kFlat * node.area;
     if (node.area > 0) node.spread = node.left < 0 ? patch_spread(tree.order[begin], node.centroid) : merged_spread(node);
   }

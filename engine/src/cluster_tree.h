@@ -14,7 +14,12 @@ struct ClusterNode {
   int begin = 0, end = 0;    // range in ClusterTree::order
   int left = -1, right = -1; // children; -1 for a single-patch leaf
   dvec3 centroid{0.0};       // area-weighted
-  int anchor = -1;           // the patch nearest the centroid: rays aim at its centre
+  int anchor = -1;           // the patch nearest the centroid: what it sees lights the cluster
+  // Where a far sample's ray aims: the anchor's point nearest the centroid. Its centre lies a
+  // quarter of the cluster off the centroid where four patches tile it, which moved the samples of
+  // a partly hidden emitter (the Cornell light, split 16 x 16 for 64 samples) off their grid:
+  // the floor beside the short box got 0.023 of direct light where Cycles gives 0.032.
+  dvec3 aim{0.0};
   dvec3 vector_area{0.0};    // sum of normal * area: the cluster's projected area in any direction
   double area = 0.0;
   double radius = 0.0;       // bounding sphere around the centroid

@@ -78,7 +78,7 @@ struct ShotBuilder {
   void average_visible(int node, ShotElement& e) {
     const ClusterNode& n = tree.nodes[node];
     const Patch& anchor = mesh.patches[n.anchor];
-    e.anchor = anchor.centre;
+    e.anchor = n.aim;
     for (int side = 0; side < 2; ++side) {
       auto mean_unshot = [&](int patch) {
         const CornerUnshot& u = unshot[patch];

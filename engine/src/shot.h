@@ -60,7 +60,7 @@ struct ShotElement {
   dvec3 centroid{0.0}, normal{0.0};
   double projected_area = 0.0;  // |vector area|: cos-weighted area is projected_area * |cos|
   Symmetric3 spread;            // second moment of its area in its plane (flat clusters)
-  dvec3 anchor{0.0};
+  dvec3 anchor{0.0};  // where its far sample's ray aims (ClusterNode::aim)
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
 };
 
