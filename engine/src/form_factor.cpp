@@ -1,5 +1,7 @@
 #include "radiosity/form_factor.h"
 
+#include "dispatch.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -41,7 +43,7 @@ inline double edge_term(const dvec3& n, const dvec3& a, const dvec3& b) {
 
 }  // namespace
 
-double polygon_form_factor(const dvec3& x, const dvec3& n, const dvec3* polygon, int count) {
+RADIOSITY_HOT double polygon_form_factor(const dvec3& x, const dvec3& n, const dvec3* polygon, int count) {
   // Sutherland-Hodgman against the half-space dot(n, r) >= 0, streaming the clipped polygon's
   // vertices straight into the edge sum so any vertex count works without storage.
   double sum = 0.0;
@@ -63,7 +65,7 @@ double polygon_form_factor(const dvec3& x, const dvec3& n, const dvec3* polygon,
   return std::fabs(sum) / (2.0 * kPi);
 }
 
-SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
+RADIOSITY_HOT SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
   // Exact for planar cells, so the factors of cells tiling a closed surface sum to one and a furnace
   // converges to E / (1 - rho) however bright; only a cell the receiver's plane cuts needs clipping.
   // A cell in the receiver's own plane gives nothing, whatever the round-off: seen from inside, the

@@ -1,5 +1,7 @@
 #include "shot.h"
 
+#include "dispatch.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -273,7 +275,7 @@ namespace {
 // to second order, right whatever the orientations: the disc approximation is right on the axis
 // only, and beside the edge where a wall meets the floor it fell 15% short at three radii, which
 // lost 0.6% of a furnace's light near its edges. Where the plane cuts it, the disc approximation.
-double cluster_form_factor(const dvec3& x, const dvec3& n, const ShotElement& e) {
+inline double cluster_form_factor(const dvec3& x, const dvec3& n, const ShotElement& e) {
   dvec3 d = e.centroid - x;
   double r2 = glm::dot(d, d);
   double f = glm::dot(n, d), g = glm::dot(e.normal, d);
@@ -346,8 +348,8 @@ void part_centroid(const Piece& p, const double h[4], int part, double& u, doubl
 // the cell's value at its centre would be wrong where the centre lies under the receiver's own
 // surface (a floor cell half under a box, seen from the box's foot: the centre's light is the
 // dark floor under the box, while all that the foot sees is the lit half).
-void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, const NearLight& light, int depth,
-                 OcclusionBatch& batch) {
+RADIOSITY_HOT void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, const NearLight& light,
+                               int depth, OcclusionBatch& batch) {
   dvec3 d = p.cell.centre - x;
   // Split near the receiver: one ray to the centre of a cell that straddles an occluder's edge (a
   // floor cell half under a box, seen from the box's foot) would count the whole cell as lit or dark.
@@ -366,7 +368,7 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
   SideFactors f = cell_form_factor(p.cell, x, n);
   if (f.front == 0 && f.back == 0) return;
   // One ray to `target` carries the light of the part on side `part` of the receiver's plane.
-  auto send = [&](int part, double u, double v, const dvec3& target) {
+  auto send = [&](int part, double u, double v, const dvec3& target) __attribute__((always_inline)) {
     dvec3 radiance = radiance_at(light.patch, light.side, light.corners[part], u, v);
     if (light.patch.piece) radiance += (*light.patch.piece)(target, p.cell.normal, light.side);
     dvec3 e = radiance * (part == 0 ? f.front : f.back);
@@ -393,8 +395,8 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
 // next room's light onto the strip between box and wall). Where the centre sees corners on both
 // sides, something else divides the patch (a wall between two rooms) and the centre's view holds
 // for the whole cell.
-void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot& shot, const ShotCell& sc, int side,
-                OcclusionBatch& batch) {
+inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot& shot, const ShotCell& sc, int side,
+                       OcclusionBatch& batch) {
   const ShotPatch& patch = shot.patches[sc.patch];
   uint8_t seen = sc.seen[side];
   NearLight light{patch, side, {seen, seen}, shot};
@@ -449,7 +451,8 @@ void take_own_view(const ShotPatch& patch, int c, int receiver, OcclusionBatch& 
 
 }  // namespace
 
-void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone) {
+RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch,
+                          const Zone* zone) {
   const dvec3& x = point.position;
   const dvec3& n = point.normal;
   int stack[128];
