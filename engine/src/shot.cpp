@@ -1,5 +1,7 @@
 #include "shot.h"
 
+#include "dispatch.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -284,7 +286,7 @@ namespace {
 // to second order, right whatever the orientations: the disc approximation is right on the axis
 // only, and beside the edge where a wall meets the floor it fell 15% short at three radii, which
 // lost 0.6% of a furnace's light near its edges. Where the plane cuts it, the disc approximation.
-double cluster_form_factor(const dvec3& x, const dvec3& n, const ShotElement& e) {
+inline double cluster_form_factor(const dvec3& x, const dvec3& n, const ShotElement& e) {
   dvec3 d = e.centroid - x;
   double r2 = glm::dot(d, d);
   double f = glm::dot(n, d), g = glm::dot(e.normal, d);
@@ -292,17 +294,22 @@ double cluster_form_factor(const dvec3& x, const dvec3& n, const ShotElement& e)
   return disc_form_factor(r2, f, g, e.projected_area);
 }
 
-// One ray to `target` carries `factor` times the radiance of the side of an element (at `centre`,
+// One ray to `target` carries `factor()` times the radiance of the side of an element (at `centre`,
 // facing `normal`) that faces x. Forced inline: called, its ten arguments and the dot products it
 // could not share with to_point were a tenth of the instructions a draft solve spends outside Embree.
+// The factor is asked for last: a third of the far clusters a default shot's receivers reach show
+// them a side that sends nothing (their backs), or lie in the receiver's plane.
+template <class Factor>
 __attribute__((always_inline)) inline void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centre,
-                                                     const dvec3& target, const dvec3& normal, double factor,
+                                                     const dvec3& target, const dvec3& normal, Factor&& factor,
                                                      const dvec3 radiance[2], double lift, OcclusionBatch& batch) {
   dvec3 d = centre - x;
   const dvec3& rad = radiance[glm::dot(normal, d) <= 0 ? 0 : 1];  // <= 0: x in front of the element
   double cos_r = glm::dot(n, d);
-  if (is_zero(rad) || cos_r == 0 || !(factor > 0)) return;
-  batch.to_point(receiver, x, n, target, normal, cos_r > 0, rad * factor, lift);
+  if (is_zero(rad) || cos_r == 0) return;
+  double f = factor();
+  if (!(f > 0)) return;
+  batch.to_point(receiver, x, n, target, normal, cos_r > 0, rad * f, lift);
 }
 
 // What lights the pieces of one cell near a receiver: its patch, the side facing the receiver, and
@@ -357,8 +364,8 @@ void part_centroid(const Piece& p, const double h[4], int part, double& u, doubl
 // the cell's value at its centre would be wrong where the centre lies under the receiver's own
 // surface (a floor cell half under a box, seen from the box's foot: the centre's light is the
 // dark floor under the box, while all that the foot sees is the lit half).
-void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, const NearLight& light, int depth,
-                 OcclusionBatch& batch) {
+RADIOSITY_HOT void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, const NearLight& light,
+                               int depth, OcclusionBatch& batch) {
   dvec3 d = p.cell.centre - x;
   // Split near the receiver: one ray to the centre of a cell that straddles an occluder's edge (a
   // floor cell half under a box, seen from the box's foot) would count the whole cell as lit or dark.
@@ -377,7 +384,7 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
   SideFactors f = cell_form_factor(p.cell, x, n);
   if (f.front == 0 && f.back == 0) return;
   // One ray to `target` carries the light of the part on side `part` of the receiver's plane.
-  auto send = [&](int part, double u, double v, const dvec3& target) {
+  auto send = [&](int part, double u, double v, const dvec3& target) __attribute__((always_inline)) {
     dvec3 radiance = radiance_at(light.patch, light.side, light.corners[part], u, v);
     if (light.patch.piece) radiance += (*light.patch.piece)(target, p.cell.normal, light.side);
     dvec3 e = radiance * (part == 0 ? f.front : f.back);
@@ -404,8 +411,8 @@ void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, c
 // next room's light onto the strip between box and wall). Where the centre sees corners on both
 // sides, something else divides the patch (a wall between two rooms) and the centre's view holds
 // for the whole cell.
-void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot& shot, const ShotCell& sc, int side,
-                OcclusionBatch& batch) {
+inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot& shot, const ShotCell& sc, int side,
+                       OcclusionBatch& batch) {
   const ShotPatch& patch = shot.patches[sc.patch];
   uint8_t seen = sc.seen[side];
   NearLight light{patch, side, {seen, seen}, shot};
@@ -460,7 +467,8 @@ void take_own_view(const ShotPatch& patch, int c, int receiver, OcclusionBatch& 
 
 }  // namespace
 
-void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone) {
+RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch,
+                          const Zone* zone) {
   const dvec3& x = point.position;
   const dvec3& n = point.normal;
   int stack[128];
@@ -484,7 +492,8 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
           const ShotPatch& patch = shot.patches[sc.patch];
           if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
           if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
-            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, *factor, sc.radiance, patch.lift, batch);
+            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, [&] { return *factor; }, sc.radiance,
+                       patch.lift, batch);
             continue;
           }
           exact_cell(receiver, x, n, shot, sc, glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1, batch);
@@ -494,7 +503,8 @@ void gather(const Shot& shot, int receiver, const ReceiverPoint& point, Occlusio
       if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
       dvec3 d = e.centroid - x;
       if (glm::dot(d, d) > e.far2) {
-        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, cluster_form_factor(x, n, e), e.radiance, 0.0, batch);
+        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, [&] { return cluster_form_factor(x, n, e); },
+                   e.radiance, 0.0, batch);
         continue;
       }
       stack[top++] = e.right;

@@ -2,6 +2,8 @@
 
 #include "solver_impl.h"
 
+#include "dispatch.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -71,7 +73,7 @@ void Solver::Impl::apply_delta(Light light) {
   absorb_delta(-1, light);
 }
 
-void Solver::Impl::absorb_delta(int sent, Light light) {
+RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, Light light) {
   int points = int(mesh.points.size());
   int patches = int(mesh.patches.size());
   double omega = settings.relaxation;

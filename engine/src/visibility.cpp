@@ -1,5 +1,7 @@
 #include "visibility.h"
 
+#include "dispatch.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -221,7 +223,7 @@ unsigned OcclusionBatch::keep_changed() {
   return kept;
 }
 
-void OcclusionBatch::flush() {
+RADIOSITY_HOT void OcclusionBatch::flush() {
   if (count_ == 0) return;
   // Each segment stops epsilon short of its end. Worked out here for the whole batch, where the
   // square roots and divisions of different rays overlap: one ray at a time, between form factors,

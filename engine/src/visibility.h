@@ -13,17 +13,22 @@
 
 namespace radiosity {
 
+// Points a ray from origin along dir, up to tfar times dir; its other fields stay as they are.
+inline void aim(RTCRay& r, const dvec3& origin, const dvec3& dir, float tfar) {
+  r.org_x = float(origin.x), r.org_y = float(origin.y), r.org_z = float(origin.z);
+  r.dir_x = float(dir.x), r.dir_y = float(dir.y), r.dir_z = float(dir.z);
+  r.tfar = tfar;
+}
+
 // An occlusion ray from origin along dir, up to tfar times dir.
 inline RTCRay make_ray(const dvec3& origin, const dvec3& dir, float tfar) {
   RTCRay r;
-  r.org_x = float(origin.x), r.org_y = float(origin.y), r.org_z = float(origin.z);
-  r.dir_x = float(dir.x), r.dir_y = float(dir.y), r.dir_z = float(dir.z);
   r.tnear = 0.0f;
-  r.tfar = tfar;
   r.time = 0.0f;
   r.mask = 0xFFFFFFFFu;
   r.id = 0;
   r.flags = 0;
+  aim(r, origin, dir, tfar);
   return r;
 }
 
@@ -97,9 +102,15 @@ class OcclusionBatch {
   // The accumulators hold receivers from `first_receiver` on: points that are not receiving points
   // (pieces of a patch) gather under indices past the last one, into arrays of their own.
   OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int first_receiver = 0)
-      : vis_(vis), front_(front), back_(back), first_(first_receiver) {}
+      : vis_(vis), front_(front), back_(back), first_(first_receiver) {
+    // Tracing changes only tfar: the fields every ray shares are written once, not once a ray.
+    for (RTCRay& r : rays_) r = make_ray(dvec3(0.0), dvec3(0.0), 0.0f);
+  }
   OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object, const Zone& zone)
-      : vis_(vis), front_(front), back_(back), changed_object_(changed_object), zone_(&zone) {}
+      : OcclusionBatch(vis, front, back) {
+    changed_object_ = changed_object;
+    zone_ = &zone;
+  }
   ~OcclusionBatch() { flush(); }
 
   // Segment from receiver point x (normal n) to target y, carrying `irradiance` to the receiver's
@@ -141,7 +152,7 @@ class OcclusionBatch {
   void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
     ++pushed_;
     if (zone_ && !zone_->crossed_by(origin, dir, tfar)) return;
-    rays_[count_] = make_ray(origin, dir, tfar);
+    aim(rays_[count_], origin, dir, tfar);
     into_[count_] = into;
     carried_[count_] = irradiance;
     if (++count_ == kCapacity) flush();
