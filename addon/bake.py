@@ -392,20 +392,20 @@ class BakeJob:
 
 
 # ----------------------------------------------------------------------------- estimate
-# Calibrated on the sample scenes (2 cores, points / rays / seconds measured). 2026-12-02: Cornell box
-# draft 1,871 / 4 M / 0.5 s, default 6,863 / 88 M / 6.4 s, high 26,255 / 710 M / 52 s; subsurf room
-# draft 1,957 / 10 M / 0.8 s, default 7,037 / 196 M / 11.5 s; animated room draft 1,859 / 8 M / 1.0 s,
-# default 6,939 / 172 M / 17 s. Since reflected shots sample distant receivers by their power
-# (Solver::Impl::far_samples), rays are fewer, Cornell box draft / default / high 3.1 / 44 / 339 M,
-# subsurf room default 96 M, animated room default 77 M: RAYS_FACTOR went from 180 to 80.
+# Calibrated on the sample scenes (2026-12-02, 2 cores, the bench alone; points / rays / seconds
+# measured): Cornell box draft 1,871 / 3 M / 0.17 s, default 6,863 / 43 M / 1.9 s, high 26,255 /
+# 341 M / 13.9 s; subsurf room default 7,037 / 96 M / 3.0 s, high 26,893 / 838 M / 22.8 s; animated
+# room default 6,939 / 85 M / 3.8 s, high 26,795 / 770 M / 32.5 s. The estimates land within
+# 0.66-2.2x of these (Cornell box over, animated room under).
 #   points  ~ POINTS_PER_PATCH_AREA * surface area / patch_size^2
 #   rays    ~ points * samples_indirect * ln(1 / threshold) * RAYS_FACTOR: reflected shots, which go on
-#             until the threshold, trace most rays (53-89 per point, indirect sample and e-fold)
-#   seconds ~ SECONDS_PER_POINT * points + SECONDS_PER_RAY * rays (8-17 M rays/s)
+#             until the threshold, trace most rays (about 50-90 per point, indirect sample and e-fold:
+#             dim shots sample distant receivers less, Solver::Impl::far_samples)
+#   seconds ~ SECONDS_PER_POINT * points + SECONDS_PER_RAY * rays (19-32 M rays/s)
 POINTS_PER_PATCH_AREA = 3.0
 RAYS_FACTOR = 80.0
 SECONDS_PER_POINT = 5.0e-5
-SECONDS_PER_RAY = 7.7e-8
+SECONDS_PER_RAY = 4.3e-8
 
 
 def scene_measure(scene):
