@@ -16,20 +16,17 @@ inline bool overlap(const Sphere& a, const Sphere& b) {
   return glm::length(a.centre - b.centre) <= a.radius + b.radius;
 }
 
-// Whether a segment from x to some point of `target` may pass through `s`: every such segment lies
-// in the capsule of radius target.radius around the segment from x to target's centre.
-inline bool may_cross(const dvec3& x, const Sphere& target, const Sphere& s) {
-  dvec3 ab = target.centre - x;
-  double len2 = glm::dot(ab, ab);
-  double t = len2 > 0 ? std::clamp(glm::dot(s.centre - x, ab) / len2, 0.0, 1.0) : 0.0;
-  return glm::length(x + t * ab - s.centre) <= s.radius + target.radius;
-}
-
 // Whether the ray origin + t dir, t in [0, t_max], passes through `s`.
 inline bool ray_crosses(const dvec3& origin, const dvec3& dir, double t_max, const Sphere& s) {
   double len2 = glm::dot(dir, dir);
   double t = len2 > 0 ? std::clamp(glm::dot(s.centre - origin, dir) / len2, 0.0, t_max) : 0.0;
   return glm::length(origin + t * dir - s.centre) <= s.radius;
+}
+
+// Whether a segment from x to some point of `target` may pass through `s`: every such segment lies
+// in the capsule of radius target.radius around the segment from x to target's centre.
+inline bool may_cross(const dvec3& x, const Sphere& target, const Sphere& s) {
+  return ray_crosses(x, target.centre - x, 1.0, {s.centre, s.radius + target.radius});
 }
 
 // Where a moved object was and is: rays that pass through neither did not change.
