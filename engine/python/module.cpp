@@ -174,7 +174,8 @@ PYBIND11_MODULE(radiosity_engine, m) {
            [](SceneDesc& s, const Array<double>& positions, const Array<int>& face_sizes,
               const Array<int>& face_vertices, const Array<int>& face_materials,
               std::optional<Array<double>> transform, const std::string& refine, int level,
-              double patch_size, bool dynamic, const std::string& name, bool visible) {
+              double patch_size, bool dynamic, const std::string& name, bool visible,
+              std::optional<Array<bool>> smooth) {
              MeshDesc mesh;
              mesh.name = name;
              mesh.positions = points(positions, "positions");
@@ -187,14 +188,17 @@ PYBIND11_MODULE(radiosity_engine, m) {
              mesh.patch_size = patch_size;
              mesh.dynamic = dynamic;
              mesh.visible = visible;
+             if (smooth)
+               for (bool b : flat(*smooth)) mesh.face_smooth.push_back(b);
              s.meshes.push_back(std::move(mesh));
              return int(s.meshes.size()) - 1;
            },
            py::arg("positions"), py::arg("face_sizes"), py::arg("face_vertices"), py::arg("face_materials"),
            py::arg("transform") = py::none(), py::arg("refine") = "none", py::arg("level") = 0,
            py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "",
-           py::arg("visible") = true,
-           "visible=False: kept (refined) but out of the lighting until Solver.set_visible(id, True)")
+           py::arg("visible") = true, py::arg("smooth") = py::none(),
+           "visible=False: kept (refined) but out of the lighting until Solver.set_visible(id, True); "
+           "smooth: per face, shaded smooth (None: smooth for catmull_clark, flat otherwise)")
       .def("add_point_light",
            [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
              s.lamps.push_back(point_lamp(position, intensity, radius));

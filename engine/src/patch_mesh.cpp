@@ -71,17 +71,18 @@ std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const Refin
     } else {
       patch.normal = va / patch.area;
     }
+    bool smooth = !refined.normals.empty() && patch.area > 0 && mesh.smooth(refined.quad_face[q - obj.patch_begin]);
     dvec3 normals[4];
     for (int c = 0; c < 4; ++c) {
       dvec3 n = patch.normal;
-      if (!refined.normals.empty() && patch.area > 0) {
-        dvec3 smooth = normal_matrix * refined.normals[patch.vertex[c] - obj.vertex_begin];
-        if (glm::length(smooth) > 0) n = glm::normalize(smooth);
+      if (smooth) {
+        dvec3 shading = normal_matrix * refined.normals[patch.vertex[c] - obj.vertex_begin];
+        if (glm::length(shading) > 0) n = glm::normalize(shading);
       }
       corner_normals.push_back(normals[c] = n);
     }
     patch.interior_share = 1.0;
-    if (!refined.normals.empty() && patch.area > 0) {
+    if (smooth) {
       dvec3 corners[4] = {*p[0], *p[1], *p[2], *p[3]};
       patch.interior_share = interior_share(corners, normals);
     }

@@ -30,10 +30,48 @@ bool all_quads_or_triangles(const MeshDesc& mesh) {
                      [](int n) { return n == 3 || n == 4; });
 }
 
+dvec3 unit_or_zero(const dvec3& v) {
+  double length = glm::length(v);
+  return length > 0 ? v / length : dvec3(0.0);
+}
+
+bool any_smooth(const MeshDesc& mesh) {
+  for (size_t f = 0; f < mesh.face_sizes.size(); ++f)
+    if (mesh.smooth(int(f))) return true;
+  return false;
+}
+
+// Blender's vertex normals: the normals of the faces round a vertex, each weighted by its angle
+// there, flat faces included (mesh_normals.cc). Unit, or zero where every face round it is degenerate.
+std::vector<dvec3> vertex_normals(const MeshDesc& mesh) {
+  std::vector<dvec3> sum(mesh.positions.size(), dvec3(0.0));
+  int offset = 0;
+  for (int n : mesh.face_sizes) {
+    const int* v = &mesh.face_vertices[offset];
+    offset += n;
+    // Newell's normal (any polygon), about its first corner: far from the origin, products of
+    // absolute positions would cancel.
+    const dvec3& origin = mesh.positions[v[0]];
+    dvec3 normal(0.0);
+    for (int i = 1; i + 1 < n; ++i)
+      normal += glm::cross(mesh.positions[v[i]] - origin, mesh.positions[v[i + 1]] - origin);
+    normal = unit_or_zero(normal);
+    for (int i = 0; i < n; ++i) {
+      dvec3 a = mesh.positions[v[(i + n - 1) % n]] - mesh.positions[v[i]];
+      dvec3 b = mesh.positions[v[(i + 1) % n]] - mesh.positions[v[i]];
+      double la = glm::length(a), lb = glm::length(b);
+      if (la > 0 && lb > 0) sum[v[i]] += std::acos(std::clamp(glm::dot(a, b) / (la * lb), -1.0, 1.0)) * normal;
+    }
+  }
+  for (dvec3& n : sum) n = unit_or_zero(n);
+  return sum;
+}
+
 // Faces taken as they are: no OpenSubdiv needed.
 RefinedMesh copy_faces(const MeshDesc& mesh) {
   RefinedMesh out;
   out.positions = mesh.positions;
+  if (any_smooth(mesh)) out.normals = vertex_normals(mesh);
   out.input_vertex.resize(mesh.positions.size());
   for (size_t i = 0; i < out.input_vertex.size(); ++i) out.input_vertex[i] = int(i);
   int offset = 0;
@@ -92,9 +130,17 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
   uniform.fullTopologyInLastLevel = true;  // limit positions and normals need it
   refiner->RefineUniform(uniform);
 
-  // Interpolate positions level by level, following vertices and faces back to the input.
+  // Interpolate positions level by level, following vertices and faces back to the input. Smooth
+  // faces of a bilinear refinement shade with the input's vertex normals interpolated as Cycles
+  // interpolates them across a face.
   std::vector<Point3> current(mesh.positions.size());
   for (size_t i = 0; i < current.size(); ++i) current[i].p = mesh.positions[i];
+  std::vector<Point3> normals;
+  if (!smooth && any_smooth(mesh)) {
+    std::vector<dvec3> input = vertex_normals(mesh);
+    normals.resize(input.size());
+    for (size_t i = 0; i < input.size(); ++i) normals[i].p = input[i];
+  }
   std::vector<int> vertex_map(mesh.positions.size());
   for (size_t i = 0; i < vertex_map.size(); ++i) vertex_map[i] = int(i);
   Far::PrimvarRefinerReal<double> primvar(*refiner);
@@ -102,6 +148,11 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
     std::vector<Point3> next(refiner->GetLevel(l).GetNumVertices());
     primvar.Interpolate(l, current, next);
     current.swap(next);
+    if (!normals.empty()) {
+      std::vector<Point3> next_normals(current.size());
+      primvar.Interpolate(l, normals, next_normals);
+      normals.swap(next_normals);
+    }
     const Far::TopologyLevel& parent = refiner->GetLevel(l - 1);
     for (int& v : vertex_map) v = parent.GetVertexChildVertex(v);
   }
@@ -133,13 +184,12 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
     out.normals.resize(current.size());
     for (size_t i = 0; i < current.size(); ++i) {
       out.positions[i] = limit[i].p;
-      dvec3 n = glm::cross(du[i].p, dv[i].p);
-      double len = glm::length(n);
-      n = len > 0 ? n / len : dvec3(0.0);
+      dvec3 n = unit_or_zero(glm::cross(du[i].p, dv[i].p));
       out.normals[i] = glm::dot(n, winding[i]) < 0 ? -n : n;
     }
   } else {
     for (size_t i = 0; i < current.size(); ++i) out.positions[i] = current[i].p;
+    for (const Point3& n : normals) out.normals.push_back(unit_or_zero(n.p));
   }
   return out;
 }

@@ -10,7 +10,9 @@ namespace radiosity {
 
 struct RefinedMesh {
   std::vector<dvec3> positions;  // object space
-  std::vector<dvec3> normals;    // per vertex limit normals (Catmull-Clark only, else empty)
+  // Per vertex, what smooth faces shade with: limit normals (Catmull-Clark), else the input's vertex
+  // normals interpolated as positions are; empty when no face is smooth.
+  std::vector<dvec3> normals;
   std::vector<std::array<int, 4>> quads;  // counter-clockwise; a triangle repeats its last vertex
   std::vector<int> quad_face;             // input face each quad came from
   std::vector<int> input_vertex;          // input vertex -> refined vertex at the same place

@@ -26,6 +26,9 @@ void validate_mesh(const MeshDesc& m, size_t index, size_t material_count) {
   if (m.face_materials.size() != m.face_sizes.size())
     fail(who + ": " + std::to_string(m.face_sizes.size()) + " faces but " +
          std::to_string(m.face_materials.size()) + " face materials");
+  if (!m.face_smooth.empty() && m.face_smooth.size() != m.face_sizes.size())
+    fail(who + ": " + std::to_string(m.face_sizes.size()) + " faces but " +
+         std::to_string(m.face_smooth.size()) + " smooth flags");
   size_t corners = 0;
   for (size_t f = 0; f < m.face_sizes.size(); ++f) {
     if (m.face_sizes[f] < 3) fail(who + ": face " + std::to_string(f) + " has fewer than 3 vertices");

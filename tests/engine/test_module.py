@@ -236,6 +236,13 @@ def test_bad_input_raises_value_error():
         engine.Solver(scene)
     with pytest.raises(ValueError, match="preset"):
         engine.Settings.preset("ultra")
+    scene = engine.Scene()
+    grey = scene.add_material((0.5, 0.5, 0.5))
+    quad = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float64)
+    scene.add_mesh(quad, np.array([4], np.int32), np.arange(4, dtype=np.int32), np.array([grey], np.int32),
+                   smooth=np.array([True, False]))
+    with pytest.raises(ValueError, match="1 faces but 2 smooth flags"):
+        engine.Solver(scene)
 
 
 @pytest.mark.parametrize("level", [1, 2])

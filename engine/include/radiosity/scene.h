@@ -38,6 +38,13 @@ struct MeshDesc {
   bool dynamic = false;    // will move or deform later: kept as an instance in the ray-tracing scene
   bool visible = true;     // takes part in the lighting; a hidden object is kept (refined, out of
                            // the ray-tracing scene) so it can appear later without a new Solver
+  // Per face: shaded smooth (Blender's Shade Smooth), with normals interpolated from the vertices'
+  // (a Catmull-Clark object's limit normals), where Cycles bakes with them; else flat. Empty: smooth
+  // for Catmull-Clark, flat otherwise.
+  std::vector<char> face_smooth;
+  bool smooth(int face) const {
+    return face_smooth.empty() ? refine == Refinement::CatmullClark && level > 0 : face_smooth[face] != 0;
+  }
 };
 
 // Point and spot lamps are Cycles' sphere lamps: a disc of `radius` facing the receiver whose total
