@@ -129,7 +129,7 @@ def _lamp_call(index, l):
 # For the messages that report a rebuild (align_export decides what needs one).
 REBUILD_NOTE = ("the engine updates moves, deformations, objects hidden, shown or deleted, materials, lamps "
                 "and the world incrementally, but not new objects, lamps or materials, nor changes of "
-                "topology, material assignment or lamp type")
+                "topology, material assignment, smooth / flat shading or lamp type")
 
 
 def _names(items):
@@ -171,6 +171,8 @@ def align_export(old, new):
                 or not np.array_equal(a.face_sizes, b.face_sizes)
                 or not np.array_equal(a.face_vertices, b.face_vertices)):
             return None, f"'{b.name}' changed topology"
+        if not _same(a.smooth, b.smooth):
+            return None, f"'{b.name}' changed its shading (smooth / flat)"
         b = replace(b, face_materials=to_old[b.face_materials])
         if not np.array_equal(a.face_materials, b.face_materials):
             return None, f"'{b.name}' changed its material assignment"

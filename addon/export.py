@@ -54,6 +54,7 @@ class MeshExport:
     animated: bool = False
     object_name: str = ""
     visible: bool = True          # False: hidden from render; the engine keeps it out of the lighting
+    smooth: np.ndarray = None     # (F,) bool, Shade Smooth per face (Cycles bakes with interpolated normals)
 
 
 @dataclass
@@ -299,8 +300,11 @@ def _is_animated(ob):
     return False
 
 
-def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_render_levels=True, cage=None):
-    """MeshExport of one evaluated object. `cage`: precomputed cage Mesh (see _cages_by_reevaluation)."""
+def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_render_levels=True, cage=None,
+                warnings=None):
+    """MeshExport of one evaluated object. `cage`: precomputed cage Mesh (see _cages_by_reevaluation);
+    what it cannot reproduce is appended to `warnings`."""
+    warnings = [] if warnings is None else warnings
     orig = ob_eval.original
     sub = _last_subsurf(orig)
     refine, level = "bilinear", 0
@@ -318,13 +322,18 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
     matches = len(me.loops) == len(orig.data.loops) and len(me.polygons) == len(orig.data.polygons)
     try:
         co, sizes, fv, mi, loops = mesh_arrays(me)
+        smooth = np.empty(len(me.polygons), bool)
+        me.polygons.foreach_get("use_smooth", smooth)
+        if me.use_auto_smooth and smooth.any():
+            warnings.append(f"{name or ob_eval.name}: Auto Smooth's sharp edges are not split "
+                            "(smooth faces shade with vertex normals)")
     finally:
         cleanup()
     lut = export_materials_of(ob_eval, registry, materials)
     fm = lut[np.clip(mi, 0, len(lut) - 1)]
     return MeshExport(name or ob_eval.name, co, sizes, fv, fm.astype(np.int32),
                       np.array(matrix, np.float64), refine, level, loops, matches,
-                      _is_animated(orig), orig.name)
+                      _is_animated(orig), orig.name, smooth=smooth)
 
 
 # ----------------------------------------------------------------------------- lights
@@ -428,7 +437,7 @@ def export_scene(depsgraph=None, use_render_levels=True):
             ev = orig.evaluated_get(depsgraph)
             if kind == 'MESH':
                 m = export_mesh(ev, depsgraph, M, registry, materials, name, use_render_levels,
-                                cages.get(orig.name))
+                                cages.get(orig.name), warnings)
                 m.visible = visible
                 if len(m.face_sizes):
                     meshes.append(m)
@@ -459,7 +468,7 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None):
         dyn = m.animated if dynamic is None else (m.name in dynamic)
         ids[m.name] = s.add_mesh(m.positions, m.face_sizes, m.face_vertices, mids[m.face_materials],
                                  m.transform, refine=m.refine, level=m.level, patch_size=patch_size,
-                                 dynamic=bool(dyn), name=m.name, visible=m.visible)
+                                 dynamic=bool(dyn), name=m.name, visible=m.visible, smooth=m.smooth)
     for l in sx.lights:
         if l.kind == "point":
             s.add_point_light(l.position, l.intensity, l.radius)
