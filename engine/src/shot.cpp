@@ -81,6 +81,7 @@ struct ShotBuilder {
     const ClusterNode& n = tree.nodes[node];
     const Patch& anchor = mesh.patches[n.anchor];
     e.anchor = n.aim;
+    e.anchor_lift = n.aim_lift;
     for (int side = 0; side < 2; ++side) {
       auto mean_unshot = [&](int patch) {
         const CornerUnshot& u = unshot[patch];
@@ -123,10 +124,7 @@ struct ShotBuilder {
           light.own_view[c][s] = mesh.own_view[4 * p + c][s];
         }
       }
-      // A twisted patch bulges off its triangles by a quarter of its twist, at its centre: a ray
-      // ending on the patch short of that could end behind the triangles and count as blocked.
-      dvec3 twist = light.corner[0] - light.corner[1] + light.corner[2] - light.corner[3];
-      light.lift = 0.25 * std::fabs(glm::dot(twist, patch.normal));
+      light.lift = bilinear_bulge(light.corner, patch.normal);
       cells.resize(k * k);
       bilinear_cells(light.corner, k, cells.data());
       const std::vector<uint8_t>* seen[2] = {nullptr, nullptr};  // per cell, a bit per corner it sees
@@ -504,7 +502,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       dvec3 d = e.centroid - x;
       if (glm::dot(d, d) > e.far2) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, [&] { return cluster_form_factor(x, n, e); },
-                   e.radiance, 0.0, batch);
+                   e.radiance, e.anchor_lift, batch);
         continue;
       }
       stack[top++] = e.right;

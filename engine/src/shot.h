@@ -61,6 +61,7 @@ struct ShotElement {
   double projected_area = 0.0;  // |vector area|: cos-weighted area is projected_area * |cos|
   Symmetric3 spread;            // second moment of its area in its plane (flat clusters)
   dvec3 anchor{0.0};  // where its far sample's ray aims (ClusterNode::aim)
+  double anchor_lift = 0.0;  // ClusterNode::aim_lift
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
 };
 

@@ -11,7 +11,7 @@ two cores shared by other jobs, 2-3x slower than alone), junction / inset metric
 
     scene             default                          high
     cornell_box        1.36% / 1.62%, 0.59%  (5 s)      1.41% / 1.78%, 0.30%  (46 s)
-    subsurf_room       1.52% / 2.84%, 1.39%  (11 s)     1.29% / 3.24%, 1.22%  (90 s)
+    subsurf_room       1.40% / 2.48%, 0.90%  (11 s)     1.12% / 2.93%, 0.81%  (90 s)
     animated_room@1    1.30% / 2.40%, 0.64%  (34 s)     0.91% / 2.52%, 0.44%  (127 s)
     animated_room@12   1.71% / 2.34%, 0.96%  (19 s)     1.14% / 2.44%, 0.62%  (130 s)
     animated_room@24   1.47% / 2.53%, 0.89%  (13 s)     0.92% / 2.57%, 0.56%  (131 s)
@@ -24,6 +24,8 @@ another surface that rises in front of theirs, a room's corners, a box's feet), 
 value is well-posed there; the corners counted are 40 of 88 (Cornell box), 36 of 68 (subsurf room:
 the Blob's corners, whose three Cycles values differ by up to 1.4% between faces) and 12 of 44.
 
+The subsurf room's row is from after a curved object's far clusters stopped losing light
+(cluster_tree.h: aim_lift, kFlat; 1.52 / 2.84 / 1.39% and 1.29 / 3.24 / 1.22% before).
 The bounds below are these plus a small margin, NOT the issue's 1% at high, which only the animated
 room at frames 1 and 24 meets.
 Tightening them is the engine's work; do not loosen them without measuring.
@@ -64,12 +66,12 @@ SLOW = os.environ.get("DR_SLOW") == "1"
 METRICS = ("junction", "inset", "open")
 BOUNDS = {
     ("cornell_box", None, "DEFAULT"): (0.015, 0.018, 0.008),
-    ("subsurf_room", None, "DEFAULT"): (0.017, 0.031, 0.016),
+    ("subsurf_room", None, "DEFAULT"): (0.016, 0.028, 0.011),
     ("animated_room", 1, "DEFAULT"): (0.015, 0.027, 0.009),
     ("animated_room", 12, "DEFAULT"): (0.019, 0.026, None),
     ("animated_room", 24, "DEFAULT"): (0.017, 0.028, None),
     ("cornell_box", None, "HIGH"): (0.016, 0.02, None),
-    ("subsurf_room", None, "HIGH"): (0.015, 0.035, None),
+    ("subsurf_room", None, "HIGH"): (0.013, 0.032, None),
     ("animated_room", 1, "HIGH"): (0.011, 0.028, None),
     ("animated_room", 12, "HIGH"): (0.013, 0.027, None),
     ("animated_room", 24, "HIGH"): (0.011, 0.028, None),

@@ -133,4 +133,11 @@ T bilinear(const T c[4], double u, double v) {
   return (1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3];
 }
 
+// How far the bilinear patch c0 c1 c2 c3 may lie off the two triangles Embree traces for it, along
+// its unit normal: a quarter of its twist, at its centre. A ray ending on the patch short of that
+// could end behind the triangles and count as blocked.
+inline double bilinear_bulge(const dvec3 c[4], const dvec3& normal) {
+  return 0.25 * std::fabs(glm::dot(c[0] - c[1] + c[2] - c[3], normal));
+}
+
 }  // namespace radiosity
