@@ -19,23 +19,31 @@ bool sun_may_cross(const Lamp& sun, const dvec3& x, const Sphere& s) {
 }  // namespace
 
 void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone) const {
-  const dvec3& x = point.position;
+  if (zone && !may_reach({point.position, 0.0}, *zone)) return;
   switch (kind) {
     case Kind::Lamp:
-      if (zone && (lamp.type == Lamp::Type::Sun
-                       ? !sun_may_cross(lamp, x, zone->before) && !sun_may_cross(lamp, x, zone->after)
-                       : !zone->may_cross(x, bounds)))
-        return;
       gather_lamp(lamp, samples, receiver, point, batch);
       break;
-    case Kind::World:  // rays leave every point in every direction
+    case Kind::World:
       gather_world(world, samples, receiver, point, batch);
       break;
     case Kind::Shot:
-      if (zone && !zone->may_cross(x, bounds)) return;
       radiosity::gather(shot, receiver, point, batch, zone);
       break;
   }
+}
+
+// A ray from a point x' within `receivers` of its centre x is a ray from x moved by x' - x, so it
+// passes through a sphere only if one from x passes through that sphere grown by the group's radius.
+bool Source::may_reach(const Sphere& receivers, const Zone& zone) const {
+  const dvec3& x = receivers.centre;
+  if (kind == Kind::World) return true;  // rays leave every point in every direction
+  if (kind == Kind::Lamp && lamp.type == Lamp::Type::Sun) {
+    double grow = receivers.radius;
+    return sun_may_cross(lamp, x, {zone.before.centre, zone.before.radius + grow}) ||
+           sun_may_cross(lamp, x, {zone.after.centre, zone.after.radius + grow});
+  }
+  return zone.may_cross(x, {bounds.centre, bounds.radius + receivers.radius});
 }
 
 Source lamp_source(const Lamp& lamp, int samples) {
