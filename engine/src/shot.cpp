@@ -500,9 +500,13 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
         }
         continue;
       }
-      if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
       dvec3 d = e.centroid - x;
-      if (glm::dot(d, d) > e.far2) {
+      bool far = glm::dot(d, d) > e.far2;
+      // A far sample is one ray, to the anchor (moved off it by epsilon): asked before the form
+      // factor, which it spares for most rays an update passes over.
+      Sphere reached = far ? Sphere{e.anchor, batch.visibility().epsilon()} : Sphere{e.centroid, e.radius};
+      if (zone && !zone->may_cross(x, reached)) continue;
+      if (far) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, [&] { return cluster_form_factor(x, n, e); },
                    e.radiance, 0.0, batch);
         continue;
