@@ -32,9 +32,17 @@ inline bool ray_crosses(const dvec3& origin, const dvec3& dir, double t_max, con
 }
 
 // Whether a segment from x to some point of `target` may pass through `s`: every such segment lies
-// in the capsule of radius target.radius around the segment from x to target's centre.
+// in the capsule of radius target.radius around the segment from x to target's centre, and in the
+// cone from x around `target`, which must then meet the cone around `s`. The cone is the tighter
+// near x, where the capsule is as wide as at `target`.
 inline bool may_cross(const dvec3& x, const Sphere& target, const Sphere& s) {
-  return ray_crosses(x, target.centre - x, 1.0, {s.centre, s.radius + target.radius});
+  if (!ray_crosses(x, target.centre - x, 1.0, {s.centre, s.radius + target.radius})) return false;
+  dvec3 a = target.centre - x, b = s.centre - x;
+  double a2 = glm::dot(a, a), b2 = glm::dot(b, b);
+  double ra2 = target.radius * target.radius, rb2 = s.radius * s.radius;
+  if (a2 <= ra2 || b2 <= rb2) return true;
+  // The angle between the axes at most the sum of the half-angles, asin(r / d) each, in cosines.
+  return glm::dot(a, b) >= std::sqrt((a2 - ra2) * (b2 - rb2)) - target.radius * s.radius;
 }
 
 // The smallest sphere around both.

@@ -33,17 +33,17 @@ void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& ba
   }
 }
 
-// A ray from a point x' within `receivers` of its centre x is a ray from x moved by x' - x, so it
-// passes through a sphere only if one from x passes through that sphere grown by the group's radius.
+// A ray from a point x' within `receivers` of its centre x is a ray from x moved by x' - x: it
+// passes through a sphere only if one from x passes through that sphere grown by the group's
+// radius, to a target grown as much.
 bool Source::may_reach(const Sphere& receivers, const Zone& zone) const {
   const dvec3& x = receivers.centre;
+  double grow = receivers.radius;
+  Zone grown{{zone.before.centre, zone.before.radius + grow}, {zone.after.centre, zone.after.radius + grow}};
   if (kind == Kind::World) return true;  // rays leave every point in every direction
-  if (kind == Kind::Lamp && lamp.type == Lamp::Type::Sun) {
-    double grow = receivers.radius;
-    return sun_may_cross(lamp, x, {zone.before.centre, zone.before.radius + grow}) ||
-           sun_may_cross(lamp, x, {zone.after.centre, zone.after.radius + grow});
-  }
-  return zone.may_cross(x, {bounds.centre, bounds.radius + receivers.radius});
+  if (kind == Kind::Lamp && lamp.type == Lamp::Type::Sun)
+    return sun_may_cross(lamp, x, grown.before) || sun_may_cross(lamp, x, grown.after);
+  return grown.may_cross(x, {bounds.centre, bounds.radius + grow});
 }
 
 Source lamp_source(const Lamp& lamp, int samples) {
