@@ -278,6 +278,57 @@ Shot scaled(Shot shot, double scale) {
   return shot;
 }
 
+std::optional<Shot> difference(const Shot& after, const Shot& before) {
+  const Shot &a = before, &b = after;
+  if (a.elements.size() != b.elements.size() || a.patches.size() != b.patches.size() ||
+      a.cells.size() != b.cells.size() || a.frontier != b.frontier || a.reflected != b.reflected)
+    return std::nullopt;
+  Shot d;
+  d.frontier = b.frontier;
+  d.split_radii = b.split_radii;
+  d.split_depth = b.split_depth;
+  d.reflected = b.reflected;
+  // The patches as after, then as before, negative. Their own views cancel: the radiance is the same.
+  int count = int(b.patches.size());
+  d.patches = b.patches;
+  d.patches.insert(d.patches.end(), a.patches.begin(), a.patches.end());
+  for (int i = 0; i < count; ++i) {
+    const ShotPatch &pa = a.patches[i], &pb = b.patches[i];
+    if (pa.piece || pb.piece) return std::nullopt;
+    for (int c = 0; c < 4; ++c)
+      for (int side = 0; side < 2; ++side)
+        if (pa.corner[c] != pb.corner[c] || pa.radiance[c][side] != pb.radiance[c][side]) return std::nullopt;
+  }
+  for (int i = 0; i < 2 * count; ++i) {
+    ShotPatch& p = d.patches[i];
+    for (auto& view : p.own_view) view[0] = view[1] = 0.0;
+    if (i >= count)
+      for (auto& corner : p.radiance)
+        for (dvec3& r : corner) r = -r;
+  }
+  d.elements = b.elements;
+  for (size_t i = 0; i < d.elements.size(); ++i) {
+    const ShotElement &ea = a.elements[i], &eb = b.elements[i];
+    if (ea.left != eb.left || ea.right != eb.right || ea.cell_begin != eb.cell_begin || ea.cell_end != eb.cell_end ||
+        ea.anchor != eb.anchor || ea.far2 != eb.far2)
+      return std::nullopt;
+    ShotElement& e = d.elements[i];
+    for (int side = 0; side < 2; ++side) e.radiance[side] = eb.radiance[side] - ea.radiance[side];
+    e.cell_begin = int(d.cells.size());
+    for (int c = eb.cell_begin; c < eb.cell_end; ++c) {
+      const ShotCell &ca = a.cells[c], &cb = b.cells[c];
+      if (ca.seen[0] == cb.seen[0] && ca.seen[1] == cb.seen[1]) continue;  // the same light
+      ShotCell gone = ca;
+      gone.patch += count;
+      for (dvec3& r : gone.radiance) r = -r;
+      d.cells.push_back(gone);
+      d.cells.push_back(cb);
+    }
+    e.cell_end = int(d.cells.size());
+  }
+  return d;
+}
+
 namespace {
 
 // Form factor of a distant flat cluster. Where the receiver's plane clears it, the kernel expanded
@@ -498,9 +549,13 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
         }
         continue;
       }
-      if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
       dvec3 d = e.centroid - x;
-      if (glm::dot(d, d) > e.far2) {
+      bool far = glm::dot(d, d) > e.far2;
+      // A far sample is one ray, to the anchor (moved off it by epsilon): asked before the form
+      // factor, which it spares for most rays an update passes over.
+      Sphere reached = far ? Sphere{e.anchor, batch.visibility().epsilon()} : Sphere{e.centroid, e.radius};
+      if (zone && !zone->may_cross(x, reached)) continue;
+      if (far) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, [&] { return cluster_form_factor(x, n, e); },
                    e.radiance, e.anchor_lift, batch);
         continue;

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -111,6 +112,11 @@ dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, d
 bool same_light(const Shot& a, const Shot& b);
 // The same shot sending `scale` times its light.
 Shot scaled(Shot shot, double scale);
+// One shot sending what `after` sends less what `before` does, where the two differ only in what
+// their cells' centres see (a shooter beside a moved object): only the cells whose view changed,
+// each twice (as before, negative, and as after), and the clusters' change of radiance. None if
+// they differ otherwise.
+std::optional<Shot> difference(const Shot& after, const Shot& before);
 
 // Adds to the batch the rays carrying the shot's irradiance to receiving point `receiver`; with
 // `zone`, only those that may pass through it (whole clusters and cells are passed over).

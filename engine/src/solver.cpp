@@ -24,6 +24,8 @@ constexpr double kProgressInterval = 0.05;  // seconds between progress callback
 // At the default threshold, about a shooter's even share of the light put in (150-230 shooters).
 constexpr double kFullSamplesAbove = 8.0;
 constexpr double kDiverged = 10.0;  // growth of the residual past which shooting cannot be converging
+// Residual, in thresholds, below which an update shoots without over-relaxation (relaxation()).
+constexpr double kRelaxAbove = 2.0;
 
 }  // namespace
 
@@ -70,13 +72,12 @@ void Solver::Impl::mark_hidden(int object) {
 void Solver::Impl::apply_delta(Light light) {
   patch_power.resize(mesh.patches.size());
 #pragma omp parallel if (mesh.points.size() > 16 * kParallelMinimum)
-  absorb_delta(-1, light);
+  absorb_delta(-1, 0.0, light);
 }
 
-RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, Light light) {
+RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light light) {
   int points = int(mesh.points.size());
   int patches = int(mesh.patches.size());
-  double omega = settings.relaxation;
   bool reflected = light == Light::reflected;
 #pragma omp for schedule(static) nowait
   for (int i = 0; i < points; ++i) {
@@ -199,16 +200,26 @@ int Solver::Impl::far_samples(double power, Sampling sampling) const {
   return std::max(1, int(std::ceil(settings.samples_indirect * std::sqrt(power / full))));
 }
 
-bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling) {
+// Over-relaxation pays where much light has many bounces to go: a solve, or an update that lit or
+// darkened the scene at large (a lamp, an emitter appearing: 1.0 took up to twice the shots). An
+// update that left the residual just past the threshold (a small object moved) has a little
+// signed light near the change to clear; shooting 1.3 times it left 0.3 of it behind, negative,
+// in each shooter, for more shots: 27 an update in the 10k room against 16 (draft), as close to a
+// fresh solve (0.19% RMS against 0.22%).
+double Solver::Impl::relaxation(Sampling sampling, double residual) const {
+  return sampling == Sampling::full && residual < kRelaxAbove * settings.threshold ? 1.0 : settings.relaxation;
+}
+
+bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, double omega) {
   Shot sent = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[s], unshot, settings.samples_indirect,
-                           settings.relaxation, settings.near_factor, far_samples(power[s], sampling));
+                           omega, settings.near_factor, far_samples(power[s], sampling));
   sent.reflected = true;
   patch_power.resize(mesh.patches.size());
   // The delta is applied on every core the gather ran on, after one barrier: on one thread it was a
   // tenth of a draft shot's time on two.
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }, true,
-                  [&] { absorb_delta(s, Light::reflected); }))
+                  [&] { absorb_delta(s, omega, Light::reflected); }))
     return false;
   power = summed_power();
   ++stats.shots;
@@ -220,6 +231,7 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
   long first_shot = stats.shots;
   std::vector<double> power = shooter_power();  // then kept up to date by each shot
   double limit = 0.0;  // the residual past which this cannot be converging
+  double omega = 0.0;  // relaxation(), for the residual this starts from
   stats.diverged = false;
   for (;;) {
     double total = 0.0;
@@ -235,6 +247,7 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     // against the patches: points of a tiny crumpled object far from the rest then see each other
     // with no ray between, and without this stop the solve ran to inf and NaN.
     if (limit == 0) limit = kDiverged * std::max(1.0, stats.residual);
+    if (omega == 0) omega = relaxation(sampling, stats.residual);
     if (!(stats.residual <= limit)) {
       stats.diverged = true;
       stats.warnings.push_back("the solve diverged (unshot light grew to " + std::to_string(stats.residual) +
@@ -254,7 +267,7 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     }
     if (cancel_requested) break;
     int best = int(std::max_element(power.begin(), power.end()) - power.begin());
-    if (!shoot(best, power, sampling)) break;
+    if (!shoot(best, power, sampling, omega)) break;
   }
   stats.cancelled = cancel_requested.load();
   if (progress && !stats.cancelled) progress(1.0, stats.residual);

@@ -93,10 +93,10 @@ struct Solver::Impl {
   enum class Light { direct, reflected };
   void apply_delta(Light light);
   // apply_delta()'s loops, shared by the threads of the parallel region it is called in (or all on
-  // the calling thread outside one), with no barrier. First, shooter `sent` (if any) moves omega
+  // the calling thread outside one), with no barrier. First, shooter `sent` (if any) moves `omega`
   // times its unshot radiance to what it has shot. Leaves each patch's share of shooter_power() in
   // patch_power, read in the same pass.
-  void absorb_delta(int sent, Light light);
+  void absorb_delta(int sent, double omega, Light light);
   std::vector<double> patch_power;
   std::vector<double> summed_power() const;  // shooter_power() from patch_power
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
@@ -119,7 +119,10 @@ struct Solver::Impl {
   // always samples_indirect (an update).
   enum class Sampling { by_power, full };
   int far_samples(double power, Sampling sampling) const;  // for a shot of shooter power `power`
-  bool shoot(int s, std::vector<double>& power, Sampling sampling);  // power: shooter_power() after the shot
+  // The omega shots send their unshot light with, when shooting starts from `residual`.
+  double relaxation(Sampling sampling, double residual) const;
+  // power: shooter_power() after the shot
+  bool shoot(int s, std::vector<double>& power, Sampling sampling, double omega);
   void propagate(const ProgressCallback& progress, Sampling sampling);  // shoots until the residual is below threshold
   const SolveStats& solve(const ProgressCallback& progress);
 

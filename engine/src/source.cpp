@@ -19,23 +19,31 @@ bool sun_may_cross(const Lamp& sun, const dvec3& x, const Sphere& s) {
 }  // namespace
 
 void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone) const {
-  const dvec3& x = point.position;
+  if (zone && !may_reach({point.position, 0.0}, *zone)) return;
   switch (kind) {
     case Kind::Lamp:
-      if (zone && (lamp.type == Lamp::Type::Sun
-                       ? !sun_may_cross(lamp, x, zone->before) && !sun_may_cross(lamp, x, zone->after)
-                       : !zone->may_cross(x, bounds)))
-        return;
       gather_lamp(lamp, samples, receiver, point, batch);
       break;
-    case Kind::World:  // rays leave every point in every direction
+    case Kind::World:
       gather_world(world, samples, receiver, point, batch);
       break;
     case Kind::Shot:
-      if (zone && !zone->may_cross(x, bounds)) return;
       radiosity::gather(shot, receiver, point, batch, zone);
       break;
   }
+}
+
+// A ray from a point x' within `receivers` of its centre x is a ray from x moved by x' - x: it
+// passes through a sphere only if one from x passes through that sphere grown by the group's
+// radius, to a target grown as much.
+bool Source::may_reach(const Sphere& receivers, const Zone& zone) const {
+  const dvec3& x = receivers.centre;
+  double grow = receivers.radius;
+  Zone grown{{zone.before.centre, zone.before.radius + grow}, {zone.after.centre, zone.after.radius + grow}};
+  if (kind == Kind::World) return true;  // rays leave every point in every direction
+  if (kind == Kind::Lamp && lamp.type == Lamp::Type::Sun)
+    return sun_may_cross(lamp, x, grown.before) || sun_may_cross(lamp, x, grown.after);
+  return grown.may_cross(x, {bounds.centre, bounds.radius + grow});
 }
 
 Source lamp_source(const Lamp& lamp, int samples) {

@@ -20,6 +20,8 @@ struct Source {
 
   // With `zone`, only the rays that may pass through it.
   void gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone = nullptr) const;
+  // Whether some of its rays to a point within `receivers` may pass through `zone`.
+  bool may_reach(const Sphere& receivers, const Zone& zone) const;
 };
 
 // `lamp` in the patch mesh's frame; rectangle and disc lamps become shots.
