@@ -115,9 +115,10 @@ class OcclusionBatch {
 
   // Segment from receiver point x (normal n) to target y, carrying `irradiance` to the receiver's
   // front or back side; y is pulled off its own surface along target_normal, towards x, by epsilon
-  // plus `lift` (how far that surface may lie off the traced one). Inline: it runs once per ray,
-  // between the form factors.
-  void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal,
+  // plus `lift` (how far that surface may lie off the traced one). Forced inline: it runs once per
+  // ray, between the form factors; called, it ran in the baseline ISA (dispatch.h), recomputed what
+  // its caller had already worked out (a cell's offset and both heights) and took eight arguments.
+  __attribute__((always_inline)) void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal,
                 bool front, const dvec3& irradiance, double lift = 0.0) {
     double eps = vis_.epsilon();
     dvec3 d = y - x;
@@ -149,7 +150,7 @@ class OcclusionBatch {
   static constexpr float kSegment = 1.0f;
 
   dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver - first_]; }
-  void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
+  __attribute__((always_inline)) void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
     ++pushed_;
     if (zone_ && !zone_->crossed_by(origin, dir, tfar)) return;
     aim(rays_[count_], origin, dir, tfar);
