@@ -152,7 +152,7 @@ Shot area_lamp_shot(const Lamp& lamp, int samples) {
   }
   e.cell_end = int(shot.cells.size());
   shot.elements.push_back(e);
-  shot.frontier.push_back(0);
+  set_frontier(shot, {0});
   return shot;
 }
 

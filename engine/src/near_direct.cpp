@@ -111,7 +111,7 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   ShotElement element;
   element.cell_end = int(leaf.cells.size());
   leaf.elements.push_back(element);
-  leaf.frontier.push_back(0);
+  set_frontier(leaf, {0});
   d.exact = leaf;
   d.exact.split_radii = kSplitRadii;
   d.exact.split_depth = kSplitDepth;

@@ -10,6 +10,7 @@
 #include "bounds.h"
 #include "cluster_tree.h"
 #include "radiosity/form_factor.h"
+#include "radiosity/lanes.h"
 #include "visibility.h"
 
 #include <array>
@@ -66,11 +67,23 @@ struct ShotElement {
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
 };
 
+// Four elements of a shot's frontier side by side, what decides whether and how each is one far
+// sample: every receiver starts at all of the frontier and tests them four at a time. Lanes past
+// the frontier's end repeat its last element; a leaf's far2 is infinite (the walk takes it to its
+// cells).
+struct alignas(kLanesAlignment) FrontierBlock {
+  Lanes3 centroid, normal, anchor;
+  Lanes far2, radius, projected_area;
+  SymmetricOf<Lanes> spread;
+  Lanes3 radiance[2];
+};
+
 struct Shot {
   std::vector<ShotElement> elements;
   std::vector<ShotCell> cells;
   std::vector<ShotPatch> patches;
-  std::vector<int> frontier;
+  std::vector<int> frontier;  // set with set_frontier, which also makes frontier_blocks from the elements
+  std::vector<FrontierBlock> frontier_blocks;
   // A cell nearer a receiver than split_radii of its radii is split 2 x 2 (each piece one ray), at
   // most split_depth times: more where the light varies within a cell, as the exact direct light
   // of near_direct.cpp does.
@@ -107,6 +120,9 @@ void add_patch(Shot& shot, const ShotPatch& patch, const std::vector<Cell>& cell
 // Radiance a patch sends from side `side` at (u, v), interpolated over the corners in `corners`
 // (a bit each) alone.
 dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, double v);
+
+// Makes `frontier` (indices into shot.elements) the shot's frontier, once its elements are all in.
+void set_frontier(Shot& shot, std::vector<int> frontier);
 
 // Whether two shots of one shooter send the same light (same samples, same radiance).
 bool same_light(const Shot& a, const Shot& b);

@@ -4,6 +4,7 @@
 
 #include "bounds.h"
 #include "patch_mesh.h"
+#include "radiosity/lanes.h"
 
 #include <embree3/rtcore.h>
 
@@ -30,6 +31,17 @@ inline RTCRay make_ray(const dvec3& origin, const dvec3& dir, float tfar) {
   r.flags = 0;
   aim(r, origin, dir, tfar);
   return r;
+}
+
+// Where a segment from receiver point x (normal n) to target y (normal m) starts, and its direction
+// to where it ends: its ends lifted off their surfaces, on the sides that face each other, by
+// epsilon, plus `lift` at y. On doubles, or on Lanes for four segments at once (lanes.h).
+template <class V, class R>
+RADIOSITY_LANES void segment_ends(const V& x, const V& n, const V& y, const V& m, R eps, R lift, V& origin, V& dir) {
+  V d = y - x;
+  origin = x + (dot(n, d) >= 0 ? eps : -eps) * n;
+  V end = y + (dot(m, d) <= 0 ? eps + lift : -eps - lift) * m;
+  dir = end - origin;
 }
 
 class Visibility {
@@ -115,15 +127,20 @@ class OcclusionBatch {
 
   // Segment from receiver point x (normal n) to target y, carrying `irradiance` to the receiver's
   // front or back side; y is pulled off its own surface along target_normal, towards x, by epsilon
-  // plus `lift` (how far that surface may lie off the traced one). Inline: it runs once per ray,
-  // between the form factors.
-  void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal,
-                bool front, const dvec3& irradiance, double lift = 0.0) {
+  // plus `lift` (how far that surface may lie off the traced one). Forced inline: it runs once per
+  // ray, between the form factors; called, it ran in the baseline ISA (dispatch.h), recomputed what
+  // its caller had already worked out (a cell's offset and both heights) and took eight arguments.
+  __attribute__((always_inline)) void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y,
+                                               const dvec3& target_normal, bool front, const dvec3& irradiance,
+                                               double lift = 0.0) {
+    dvec3 origin, dir;
+    segment_ends(x, n, y, target_normal, vis_.epsilon(), lift, origin, dir);
+    segment(receiver, origin, dir, front, irradiance);
+  }
+  // The same, for a segment whose ends segment_ends worked out (gather does so four at a time).
+  __attribute__((always_inline)) void segment(int receiver, const dvec3& origin, const dvec3& dir, bool front,
+                                              const dvec3& irradiance) {
     double eps = vis_.epsilon();
-    dvec3 d = y - x;
-    dvec3 origin = x + (glm::dot(n, d) >= 0 ? eps : -eps) * n;
-    dvec3 end = y + (glm::dot(target_normal, d) <= 0 ? eps + lift : -eps - lift) * target_normal;
-    dvec3 dir = end - origin;
     if (glm::dot(dir, dir) <= 4 * eps * eps) {  // touching: nothing fits (nor moves) in between
       if (changed_object_ < 0) sum(receiver, front) += share_[!front] * irradiance;
       return;
@@ -149,7 +166,7 @@ class OcclusionBatch {
   static constexpr float kSegment = 1.0f;
 
   dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver - first_]; }
-  void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
+  __attribute__((always_inline)) void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
     ++pushed_;
     if (zone_ && !zone_->crossed_by(origin, dir, tfar)) return;
     aim(rays_[count_], origin, dir, tfar);

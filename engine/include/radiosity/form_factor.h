@@ -4,6 +4,8 @@
 // part seen by the hemisphere around +n (front) and the part seen around -n (back).
 #pragma once
 
+#include "radiosity/lanes.h"
+
 #include <glm/glm.hpp>
 
 #include <cmath>
@@ -23,30 +25,34 @@ struct SideFactors {
   double back = 0.0;
 };
 
-// A symmetric 3 x 3 matrix: six numbers where a dmat3 holds nine.
-struct Symmetric3 {
-  double xx = 0, yy = 0, zz = 0, xy = 0, xz = 0, yz = 0;
-  dvec3 operator*(const dvec3& v) const {
-    return dvec3(xx * v.x + xy * v.y + xz * v.z, xy * v.x + yy * v.y + yz * v.z, xz * v.x + yz * v.y + zz * v.z);
+// A symmetric 3 x 3 matrix: six numbers where a dmat3 holds nine. Of doubles, or of Lanes (four
+// matrices) for the form factors of four elements at once; only the products are generic.
+template <class R>
+struct SymmetricOf {
+  R xx{}, yy{}, zz{}, xy{}, xz{}, yz{};
+  template <class V>
+  V operator*(const V& v) const {
+    return V{xx * v.x + xy * v.y + xz * v.z, xy * v.x + yy * v.y + yz * v.z, xz * v.x + yz * v.y + zz * v.z};
   }
-  double trace() const { return xx + yy + zz; }
-  static Symmetric3 outer(const dvec3& v) {
+  R trace() const { return xx + yy + zz; }
+  static SymmetricOf outer(const dvec3& v) {
     return {v.x * v.x, v.y * v.y, v.z * v.z, v.x * v.y, v.x * v.z, v.y * v.z};
   }
-  Symmetric3& add(const Symmetric3& o, double weight) {
+  SymmetricOf& add(const SymmetricOf& o, double weight) {
     xx += weight * o.xx, yy += weight * o.yy, zz += weight * o.zz;
     xy += weight * o.xy, xz += weight * o.xz, yz += weight * o.yz;
     return *this;
   }
   // P M P, P the projection onto the plane normal to unit n: the moment flattened into that plane.
-  Symmetric3 in_plane(const dvec3& n) const {
+  SymmetricOf in_plane(const dvec3& n) const {
     dvec3 mn = *this * n;  // P M P = M - n (Mn)^T - (Mn) n^T + (n.Mn) n n^T
-    Symmetric3 out = *this;
+    SymmetricOf out = *this;
     out.xx -= 2 * n.x * mn.x, out.yy -= 2 * n.y * mn.y, out.zz -= 2 * n.z * mn.z;
     out.xy -= n.x * mn.y + mn.x * n.y, out.xz -= n.x * mn.z + mn.x * n.z, out.yz -= n.y * mn.z + mn.y * n.z;
     return out.add(outer(n), glm::dot(n, mn));
   }
 };
+using Symmetric3 = SymmetricOf<double>;
 
 // A planar-enough quadrilateral piece of a shooter with its sample point at the centre.
 // What a distant receiver reads comes first, the corners last: most cells a receiver visits are far.
@@ -69,37 +75,39 @@ SideFactors cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n);
 // second moment about its centroid (per unit area, in its plane, where g is constant) is `spread`:
 // A (K + tr(H M) / 2), H the kernel's Hessian. d runs from the receiver (x, n) to the centroid, f and
 // g are the heights n.d and m.d. Valid where the receiver's plane does not cut the element. One
-// division serves all the terms.
-inline double expanded_form_factor(const dvec3& d, double r2, double f, double g, double area,
-                                   const Symmetric3& spread, const dvec3& n) {
+// division serves all the terms. This and the two below run on doubles or on Lanes (lanes.h).
+template <class V, class R, class S>
+RADIOSITY_LANES R expanded_form_factor(const V& d, R r2, R f, R g, R area, const S& spread, const V& n) {
   constexpr double kPi = 3.14159265358979323846;
-  dvec3 md = spread * d;
-  double inv = 1.0 / (f * r2 * r2);
-  double correction = 1 - 2 * spread.trace() * f * r2 * inv + 12 * glm::dot(d, md) * f * inv -
-                      4 * glm::dot(n, md) * r2 * inv;
-  return std::fabs(f * f * g * inv) * area * correction / kPi;
+  V md = spread * d;
+  R inv = 1.0 / (f * r2 * r2);
+  R correction = 1 - 2 * spread.trace() * f * r2 * inv + 12 * dot(d, md) * f * inv - 4 * dot(n, md) * r2 * inv;
+  return magnitude(f * f * g * inv) * area * correction / kPi;
 }
 
 // The disc approximation of the same, right on the axis of a disc: the bare point kernel
 // A / (pi r^2) overshoots there by (R / r)^2. One division.
-inline double disc_form_factor(double r2, double f, double g, double area) {
+template <class R>
+RADIOSITY_LANES R disc_form_factor(R r2, R f, R g, R area) {
   constexpr double kPi = 3.14159265358979323846;
-  return std::fabs(f * g) * area / (r2 * (kPi * r2 + area));
+  return magnitude(f * g) * area / (r2 * (kPi * r2 + area));
 }
 
 // Whether the receiver's plane (x, n) stays clear of an element of `reach` about its centroid, d
 // away, facing `normal`: the element's points' heights over the plane differ from the centroid's,
 // f = n.d, by at most the reach times the sine between the planes.
-inline bool clear_of_plane(const dvec3& n, const dvec3& normal, double f, double reach) {
-  double cosine = glm::dot(n, normal);
+template <class V, class R>
+RADIOSITY_LANES auto clear_of_plane(const V& n, const V& normal, R f, R reach) {
+  R cosine = dot(n, normal);
   return f * f > reach * reach * (1 - cosine * cosine);
 }
 
 // Form factor from (x, n) to a distant cell that the receiver's plane does not come near, by the
 // point kernel expanded to second order about the cell's centroid: error O((radius / distance)^4)
 // of A / (pi r^2) (third order for cells without central symmetry), for a fraction of Lambert's cost.
-// Nothing when the expansion does not hold there. Inline: it runs for most cells a receiver visits.
-inline std::optional<double> distant_cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
+// Nothing when the expansion does not hold there. Forced inline: it runs for most cells a receiver
+// visits, and GCC left it out of line (in the baseline ISA, dispatch.h) once gather grew.
+__attribute__((always_inline)) inline std::optional<double> distant_cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
   // Beyond this many radii the error is below 2e-4 of A / (pi r^2), and over a whole view it
   // partly cancels: a furnace at rho = 0.99 stays within its 0.1%.
   constexpr double kDistantRadii = 8.0;
