@@ -250,7 +250,7 @@ void set_frontier(Shot& shot, std::vector<int> frontier) {
       set_lane(block.anchor, l, e.anchor);
       for (int side = 0; side < 2; ++side) set_lane(block.radiance[side], l, e.radiance[side]);
       block.far2[l] = e.left < 0 ? INFINITY : e.far2;
-      block.radius[l] = e.radius, block.projected_area[l] = e.projected_area;
+      block.radius[l] = e.radius, block.projected_area[l] = e.projected_area, block.anchor_lift[l] = e.anchor_lift;
       block.spread.xx[l] = e.spread.xx, block.spread.yy[l] = e.spread.yy, block.spread.zz[l] = e.spread.zz;
       block.spread.xy[l] = e.spread.xy, block.spread.xz[l] = e.spread.xz, block.spread.yz[l] = e.spread.yz;
     }
@@ -332,7 +332,7 @@ std::optional<Shot> difference(const Shot& after, const Shot& before) {
   for (size_t i = 0; i < d.elements.size(); ++i) {
     const ShotElement &ea = a.elements[i], &eb = b.elements[i];
     if (ea.left != eb.left || ea.right != eb.right || ea.cell_begin != eb.cell_begin || ea.cell_end != eb.cell_end ||
-        ea.anchor != eb.anchor || ea.far2 != eb.far2)
+        ea.anchor != eb.anchor || ea.anchor_lift != eb.anchor_lift || ea.far2 != eb.far2)
       return std::nullopt;
     ShotElement& e = d.elements[i];
     for (int side = 0; side < 2; ++side) e.radiance[side] = eb.radiance[side] - ea.radiance[side];
@@ -610,7 +610,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
     Lanes factor = cluster_form_factor(xs, ns, block);
     LaneMask sends = far & ((rad.x != 0) | (rad.y != 0) | (rad.z != 0)) & (cos_r != 0) & (factor > 0);
     Lanes3 origin, dir;
-    segment_ends(xs, ns, block.anchor, block.normal, eps, Lanes{}, origin, dir);
+    segment_ends(xs, ns, block.anchor, block.normal, eps, block.anchor_lift, origin, dir);
     Lanes3 irradiance = factor * rad;
     for (int l = 0; first + l < end; ++l) {
       if (!far[l]) {

@@ -73,7 +73,7 @@ struct ShotElement {
 // cells).
 struct alignas(kLanesAlignment) FrontierBlock {
   Lanes3 centroid, normal, anchor;
-  Lanes far2, radius, projected_area;
+  Lanes far2, radius, projected_area, anchor_lift;
   SymmetricOf<Lanes> spread;
   Lanes3 radiance[2];
 };
