@@ -348,6 +348,7 @@ std::optional<Shot> difference(const Shot& after, const Shot& before) {
     }
     e.cell_end = int(d.cells.size());
   }
+  set_frontier(d, std::move(d.frontier));  // the lanes hold the elements' radiance: after it is set
   return d;
 }
 
