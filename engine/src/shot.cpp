@@ -539,6 +539,9 @@ void take_own_view(const ShotPatch& patch, int c, int receiver, OcclusionBatch& 
     if (patch.own_view[c][side] > 0) batch.add(receiver, side == 0, patch.own_view[c][side] * patch.radiance[c][side]);
 }
 
+// Where a far sample's one ray ends: at the anchor, moved off it by epsilon and the anchor's lift.
+Sphere far_end(const ShotElement& e, double eps) { return {e.anchor, eps + e.anchor_lift}; }
+
 }  // namespace
 
 RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch,
@@ -577,9 +580,8 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       }
       dvec3 d = e.centroid - x;
       bool far = glm::dot(d, d) > e.far2;
-      // A far sample is one ray, to the anchor (moved off it by epsilon): asked before the form
-      // factor, which it spares for most rays an update passes over.
-      Sphere reached = far ? Sphere{e.anchor, batch.visibility().epsilon()} : Sphere{e.centroid, e.radius};
+      // Asked before the form factor, which it spares for most rays an update passes over.
+      Sphere reached = far ? far_end(e, batch.visibility().epsilon()) : Sphere{e.centroid, e.radius};
       if (zone && !zone->may_cross(x, reached)) continue;
       if (far) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, [&] { return cluster_form_factor(x, n, e); },
@@ -618,7 +620,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
         walk(shot.frontier[first + l]);
       } else if (sends[l]) {
         const ShotElement& e = shot.elements[shot.frontier[first + l]];
-        if (zone && !zone->may_cross(x, {e.centroid, e.radius})) continue;
+        if (zone && !zone->may_cross(x, far_end(e, batch.visibility().epsilon()))) continue;
         batch.segment(receiver, lane(origin, l), lane(dir, l), cos_r[l] > 0, lane(irradiance, l));
       }
     }
