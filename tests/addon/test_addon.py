@@ -208,6 +208,38 @@ def test_edit_mode_is_reported(addon):
     assert ob.data.color_attributes.get("Radiosity") is None
 
 
+def test_a_diverging_solve_is_an_error_and_keeps_the_colours(addon):
+    # The engine's fuzzed case (test_module.py: test_a_solve_that_diverges_stops_and_says_so), built
+    # in Blender: a crumpled Subdivision Surface object 7 cm across, 2.5 km from a 1 cm quad, so the
+    # ray offset is as large as the object. The engine stops and says so; the add-on must not write
+    # what it stopped with.
+    scene, _ = empty_with_plane(light=False, world=(0.5, 0.5, 0.5))
+    bpy.data.objects.remove(scene.objects["Plane"])
+    positions = [(0.005069, -0.003808, -0.007053), (0.009679, -0.009473, 0.002181),
+                 (-0.00912, -4.8e-05, -0.005745), (0.015235, 0.002068, 0.002013),
+                 (0.022331, -0.036548, -0.013566), (-0.034651, 0.000704, 0.006438),
+                 (0.009067, 0.004177, -0.01062), (0.02335, 0.004573, -0.00278),
+                 (-0.013946, 0.005996, -0.005834)]
+    faces = [(1, 6, 5, 0), (4, 6, 1, 1, 7), (5, 7, 3), (4, 2, 1, 8, 6), (6, 0, 2, 3), (4, 2, 7, 7),
+             (2, 6, 7, 0, 4)]
+    obs = []
+    for name, p, f in (("Crumpled", positions, faces),
+                       ("Far", [(-836, -1716, 1812), (-835.99, -1716, 1812), (-835.99, -1715.99, 1812),
+                                (-836, -1715.99, 1812)], [(0, 1, 2, 3)])):
+        me = bpy.data.meshes.new(name)
+        me.from_pydata(p, [], f)
+        ob = bpy.data.objects.new(name, me)
+        scene.collection.objects.link(ob)
+        addon.writeback.write_mesh(me, np.full((len(me.loops), 4), 0.25, np.float32))
+        obs.append(ob)
+    sub = obs[0].modifiers.new("Subdivision", 'SUBSURF')
+    sub.levels = sub.render_levels = 2
+    with pytest.raises(RuntimeError, match="diverged"):
+        bpy.ops.radiosity.bake()
+    for ob in obs:
+        assert np.all(colours(ob) == 0.25), ob.name
+
+
 def test_degenerate_face_warns(addon):
     scene, ob = empty_with_plane()
     me = bpy.data.meshes.new("Sliver")
