@@ -175,7 +175,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
               const Array<int>& face_vertices, const Array<int>& face_materials,
               std::optional<Array<double>> transform, const std::string& refine, int level,
               double patch_size, bool dynamic, const std::string& name, bool visible,
-              std::optional<Array<bool>> smooth) {
+              std::optional<Array<bool>> smooth, std::optional<Array<double>> corner_reflectance) {
              MeshDesc mesh;
              mesh.name = name;
              mesh.positions = points(positions, "positions");
@@ -190,15 +190,18 @@ PYBIND11_MODULE(radiosity_engine, m) {
              mesh.visible = visible;
              if (smooth)
                for (bool b : flat(*smooth)) mesh.face_smooth.push_back(b);
+             if (corner_reflectance) mesh.corner_reflectance = points(*corner_reflectance, "corner_reflectance");
              s.meshes.push_back(std::move(mesh));
              return int(s.meshes.size()) - 1;
            },
            py::arg("positions"), py::arg("face_sizes"), py::arg("face_vertices"), py::arg("face_materials"),
            py::arg("transform") = py::none(), py::arg("refine") = "none", py::arg("level") = 0,
            py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "",
-           py::arg("visible") = true, py::arg("smooth") = py::none(),
+           py::arg("visible") = true, py::arg("smooth") = py::none(), py::arg("corner_reflectance") = py::none(),
            "visible=False: kept (refined) but out of the lighting until Solver.set_visible(id, True); "
-           "smooth: per face, shaded smooth (None: smooth for catmull_clark, flat otherwise)")
+           "smooth: per face, shaded smooth (None: smooth for catmull_clark, flat otherwise); "
+           "corner_reflectance: (face corners, 3) in face_vertices' order, in place of the materials' "
+           "reflectance (a texture sampled at the corners; None: the materials')")
       .def("add_point_light",
            [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
              s.lamps.push_back(point_lamp(position, intensity, radius));

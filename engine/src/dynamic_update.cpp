@@ -214,16 +214,20 @@ void Solver::Impl::change_material(int index, const Material& m) {
   Material old = scene.materials[index];
   scene.materials[index] = m;
   // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did (of
-  // their points' reflected light, `onward` times it).
+  // their points' reflected light, `onward` times it). A textured object's reflectance is its own.
   dvec3 rho = m.reflectance - old.reflectance;
   dvec3 emission = m.emission - old.emission;
   std::vector<CornerUnshot> emitted(mesh.patches.size());
   for (size_t p = 0; p < mesh.patches.size(); ++p) {
     const Patch& patch = mesh.patches[p];
     emitted[p].fill(dvec3(0.0));
+    if (patch.material != index) continue;
+    bool own_rho = !mesh.objects[patch.object].textured;
+    if (own_rho) std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
     // A hidden object emits nothing, and gathers nothing to reflect.
-    if (patch.material != index || patch.area == 0 || !scene.meshes[patch.object].visible) continue;
+    if (patch.area == 0 || !scene.meshes[patch.object].visible) continue;
     emitted[p].fill(emission);
+    if (!own_rho) continue;
     for (int c = 0; c < 4; ++c) {
       int i = patch.point[c];
       double onward = mesh.onward[4 * p + c];

@@ -67,9 +67,12 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   NearDetail& d = it->second;
   if (!fresh) return d.interpolated.patches.empty() ? nullptr : &d;
   const Patch& patch = mesh.patches[q];
-  const Material& m = material(q);
-  if (patch.area == 0 || !scene.meshes[patch.object].visible || m.reflectance == dvec3(0.0) ||
-      m.emission != dvec3(0.0))
+  const dvec3* rho = &mesh.reflectance[4 * q];
+  // Pieces reflect the corners' mean: a texture's colour changes little across one patch, unlike
+  // the light across a shadow edge.
+  dvec3 mean_rho = 0.25 * (rho[0] + rho[1] + rho[2] + rho[3]);
+  if (patch.area == 0 || !scene.meshes[patch.object].visible || mean_rho == dvec3(0.0) ||
+      material(q).emission != dvec3(0.0))
     return nullptr;
   CornerUnshot& corners = nd.scratch[q];
   for (int c = 0; c < 4; ++c) {
@@ -89,7 +92,7 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
     corners.fill(dvec3(0.0));
     return nullptr;
   }
-  for (int k = 0; k < 8; ++k) corners[k] = d.step[k % 2] ? -m.reflectance * corners[k] : dvec3(0.0);
+  for (int k = 0; k < 8; ++k) corners[k] = d.step[k % 2] ? -rho[k / 2] * corners[k] : dvec3(0.0);
   Shot whole = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[patch_shooter[q]], nd.scratch,
                             settings.samples_indirect, 1.0, settings.near_factor);
   corners.fill(dvec3(0.0));
@@ -116,7 +119,7 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   d.exact.split_radii = kSplitRadii;
   d.exact.split_depth = kSplitDepth;
   for (auto& corner : d.exact.patches[0].radiance) corner[0] = corner[1] = dvec3(0.0);
-  d.reflectance = m.reflectance;
+  d.reflectance = mean_rho;
   d.at_piece = [this, &d](const dvec3& y, const dvec3& normal, int side) {
     return d.step[side] ? d.reflectance * direct_at(y, normal)[side] : dvec3(0.0);
   };

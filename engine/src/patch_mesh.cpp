@@ -27,9 +27,10 @@ void scene_bounds(const SceneDesc& scene, dvec3& lo, dvec3& hi) {
     }
 }
 
-// Appends one object's patches (topology only: corners, material, object); `set_geometry` places them.
-void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined, int object,
-                 ObjectPatches& obj) {
+// Appends one object's patches (topology only: corners, material and reflectance, object);
+// `set_geometry` places them.
+void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined, const std::vector<Material>& materials,
+                 int object, ObjectPatches& obj) {
   int base = int(pm.vertices.size());
   pm.vertices.resize(base + refined.positions.size());
   // A mirroring transform turns counter-clockwise into clockwise: swap to keep the front.
@@ -43,7 +44,13 @@ void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined
     patch.material = mesh.face_materials[refined.quad_face[q]];
     patch.object = object;
     pm.patches.push_back(patch);
+    std::array<dvec3, 4> rho;
+    rho.fill(materials[patch.material].reflectance);
+    if (!refined.corner_reflectance.empty()) rho = refined.corner_reflectance[q];
+    if (mirrored) std::swap(rho[1], rho[3]);
+    pm.reflectance.insert(pm.reflectance.end(), rho.begin(), rho.end());
   }
+  obj.textured = !refined.corner_reflectance.empty();
 }
 
 // Places an object's vertices and patches from its refinement and transform; returns the corner
@@ -214,7 +221,7 @@ PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
     RefinedMesh refined = refine_mesh(mesh, obj.level);
     obj.patch_begin = int(pm.patches.size());
     obj.vertex_begin = int(pm.vertices.size());
-    add_patches(pm, mesh, refined, int(i), obj);
+    add_patches(pm, mesh, refined, scene.materials, int(i), obj);
     obj.patch_end = int(pm.patches.size());
     obj.vertex_end = int(pm.vertices.size());
     std::vector<dvec3> normals = set_geometry(pm, mesh, refined, obj);

@@ -42,6 +42,7 @@ struct ObjectPatches {
   int level = 0;          // bilinear levels it was refined with: a moved object keeps its patches
   int degenerate = 0;     // zero-area patches
   bool mirrored = false;  // transform flips handedness
+  bool textured = false;  // its reflectance is per corner (MeshDesc::corner_reflectance), not its materials'
   std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place
 };
 
@@ -58,6 +59,7 @@ struct PatchMesh {
   // range, which the point takes at the corner's radiance (CornerView::own; 0 on flat surfaces).
   std::vector<std::array<double, 2>> own_view;
   std::vector<double> onward;  // per slot: CornerView::onward
+  std::vector<dvec3> reflectance;  // per slot: the material's, or MeshDesc::corner_reflectance there
   std::vector<ObjectPatches> objects;  // one per SceneDesc mesh
   int degenerate_patches = 0;
 };

@@ -80,6 +80,10 @@ RefinedMesh copy_faces(const MeshDesc& mesh) {
     int n = mesh.face_sizes[f];
     out.quads.push_back({v[0], v[1], v[2], n == 4 ? v[3] : v[2]});
     out.quad_face.push_back(int(f));
+    if (!mesh.corner_reflectance.empty()) {
+      const dvec3* rho = &mesh.corner_reflectance[offset];
+      out.corner_reflectance.push_back({rho[0], rho[1], rho[2], n == 4 ? rho[3] : rho[2]});
+    }
     offset += n;
   }
   return out;
@@ -119,9 +123,24 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
   desc.numVertsPerFace = mesh.face_sizes.data();
   desc.vertIndicesPerFace = mesh.face_vertices.data();
 
+  // Corner reflectance is face-varying: each face corner a value of its own, interpolated
+  // linearly inside its face (as Cycles interpolates a texture's colours between samples).
+  std::vector<int> corner_index;
+  Far::TopologyDescriptor::FVarChannel corners;
+  bool textured = !mesh.corner_reflectance.empty();
+  if (textured) {
+    corner_index.resize(mesh.corner_reflectance.size());
+    for (size_t k = 0; k < corner_index.size(); ++k) corner_index[k] = int(k);
+    corners.numValues = int(corner_index.size());
+    corners.valueIndices = corner_index.data();
+    desc.numFVarChannels = 1;
+    desc.fvarChannels = &corners;
+  }
+
   Sdc::Options sdc;
   // Blender's Subdivision Surface default ("Keep Corners").
   sdc.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER);
+  sdc.SetFVarLinearInterpolation(Sdc::Options::FVAR_LINEAR_ALL);
   using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
   std::unique_ptr<Far::TopologyRefiner> refiner(Factory::Create(
       desc, Factory::Options(smooth ? Sdc::SCHEME_CATMARK : Sdc::SCHEME_BILINEAR, sdc)));
@@ -141,6 +160,9 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
     normals.resize(input.size());
     for (size_t i = 0; i < input.size(); ++i) normals[i].p = input[i];
   }
+  std::vector<Point3> reflectance;
+  if (textured)
+    for (const dvec3& rho : mesh.corner_reflectance) reflectance.push_back({rho});
   std::vector<int> vertex_map(mesh.positions.size());
   for (size_t i = 0; i < vertex_map.size(); ++i) vertex_map[i] = int(i);
   Far::PrimvarRefinerReal<double> primvar(*refiner);
@@ -152,6 +174,11 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
       std::vector<Point3> next_normals(current.size());
       primvar.Interpolate(l, normals, next_normals);
       normals.swap(next_normals);
+    }
+    if (textured) {
+      std::vector<Point3> next_reflectance(refiner->GetLevel(l).GetNumFVarValues(0));
+      primvar.InterpolateFaceVarying(l, reflectance, next_reflectance);
+      reflectance.swap(next_reflectance);
     }
     const Far::TopologyLevel& parent = refiner->GetLevel(l - 1);
     for (int& v : vertex_map) v = parent.GetVertexChildVertex(v);
@@ -165,6 +192,11 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
   for (int f = 0; f < last.GetNumFaces(); ++f) {
     Far::ConstIndexArray fv = last.GetFaceVertices(f);
     out.quads[f] = {fv[0], fv[1], fv[2], fv[3]};
+    if (textured) {
+      Far::ConstIndexArray fvar = last.GetFaceFVarValues(f, 0);
+      out.corner_reflectance.push_back(
+          {reflectance[fvar[0]].p, reflectance[fvar[1]].p, reflectance[fvar[2]].p, reflectance[fvar[3]].p});
+    }
     int parent = f;
     for (int l = level; l > 0; --l) parent = refiner->GetLevel(l).GetFaceParentFace(parent);
     out.quad_face[f] = parent;

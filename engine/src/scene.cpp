@@ -11,6 +11,15 @@ bool finite(const dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) &&
 
 [[noreturn]] void fail(const std::string& what) { throw std::invalid_argument(what); }
 
+// Reflectance a surface can have: a surface that reflects all the light it gets would hold it
+// forever in a closed room, and shooting would never converge.
+void check_reflectance(const dvec3& rho, const std::string& who) {
+  if (!finite(rho)) fail(who + ": NaN or infinite reflectance");
+  for (int c = 0; c < 3; ++c)
+    if (rho[c] < 0 || rho[c] >= 1)
+      fail(who + ": reflectance must be in [0, 1) (a surface cannot reflect all light it gets)");
+}
+
 std::string mesh_label(const MeshDesc& m, size_t i) {
   return "object '" + (m.name.empty() ? "#" + std::to_string(i) : m.name) + "'";
 }
@@ -48,6 +57,11 @@ void validate_mesh(const MeshDesc& m, size_t index, size_t material_count) {
     fail(who + ": Catmull-Clark level must be in 0..10");
   if (!(m.patch_size >= 0) || !std::isfinite(m.patch_size))
     fail(who + ": patch size must be a finite non-negative number");
+  if (!m.corner_reflectance.empty() && m.corner_reflectance.size() != corners)
+    fail(who + ": " + std::to_string(corners) + " face corners but " +
+         std::to_string(m.corner_reflectance.size()) + " corner reflectances");
+  for (size_t k = 0; k < m.corner_reflectance.size(); ++k)
+    check_reflectance(m.corner_reflectance[k], who + ", face corner " + std::to_string(k));
 }
 
 }  // namespace
@@ -56,12 +70,10 @@ void SceneDesc::validate() const {
   for (size_t i = 0; i < materials.size(); ++i) {
     const Material& m = materials[i];
     std::string who = "material " + std::to_string(i);
-    if (!finite(m.reflectance) || !finite(m.emission)) fail(who + ": NaN or infinite value");
-    for (int c = 0; c < 3; ++c) {
-      if (m.reflectance[c] < 0 || m.reflectance[c] >= 1)
-        fail(who + ": reflectance must be in [0, 1) (a surface cannot reflect all light it gets)");
+    check_reflectance(m.reflectance, who);
+    if (!finite(m.emission)) fail(who + ": NaN or infinite emission");
+    for (int c = 0; c < 3; ++c)
       if (m.emission[c] < 0) fail(who + ": emission must not be negative");
-    }
   }
   for (size_t i = 0; i < meshes.size(); ++i) validate_mesh(meshes[i], i, materials.size());
   for (size_t i = 0; i < lamps.size(); ++i) {

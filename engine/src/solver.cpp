@@ -98,8 +98,8 @@ RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light ligh
       }
     const Patch& patch = mesh.patches[p];
     if (patch.area != 0) {
-      const dvec3& rho = material(p).reflectance;
       for (int c = 0; c < 4; ++c) {
+        const dvec3& rho = mesh.reflectance[4 * p + c];
         dvec3 r = reflected ? mesh.onward[4 * p + c] * rho : rho;
         unshot[p][c * 2 + 0] += r * delta_front[patch.point[c]];
         unshot[p][c * 2 + 1] += r * delta_back[patch.point[c]];
@@ -299,7 +299,7 @@ dvec3 Solver::Impl::corner_value(int slot, bool near) const {
   if (!scene.meshes[patch.object].visible) return dvec3(0.0);  // it takes no part: no light, no emission
   const Material& m = scene.materials[patch.material];
   int point = patch.point[slot % 4];
-  return m.emission + m.reflectance * (front[point] + (near ? near_direct_correction(point) : dvec3(0.0)));
+  return m.emission + mesh.reflectance[slot] * (front[point] + (near ? near_direct_correction(point) : dvec3(0.0)));
 }
 
 Solver::Solver(SceneDesc scene, const Settings& settings)
@@ -356,9 +356,9 @@ PowerBalance Solver::power_balance() const {
   b.injected = s.injected_power;
   for (size_t p = 0; p < s.mesh.patches.size(); ++p) {
     const Patch& patch = s.mesh.patches[p];
-    dvec3 absorb = dvec3(1.0) - s.material(int(p)).reflectance;
     for (int c = 0; c < 4; ++c) {
       int pt = patch.point[c];
+      dvec3 absorb = dvec3(1.0) - s.mesh.reflectance[4 * p + c];
       b.unshot += 0.25 * patch.area * channel_sum(s.unshot[p][c * 2] + s.unshot[p][c * 2 + 1]);
       b.absorbed += 0.25 * patch.area * channel_sum(absorb * (s.front[pt] + s.back[pt]));
     }

@@ -42,6 +42,10 @@ struct MeshDesc {
   // (a Catmull-Clark object's limit normals), where Cycles bakes with them; else flat. Empty: smooth
   // for Catmull-Clark, flat otherwise.
   std::vector<char> face_smooth;
+  // Per face corner (face_vertices' order): the reflectance there, in place of the faces'
+  // materials' (a colour texture sampled at the corners), interpolated across each face. Empty: the
+  // materials'. Their emission still counts.
+  std::vector<dvec3> corner_reflectance;
   bool smooth(int face) const {
     return face_smooth.empty() ? refine == Refinement::CatmullClark && level > 0 : face_smooth[face] != 0;
   }
