@@ -94,6 +94,8 @@ def effects_of(sx):
     used = {int(i) for m in meshes for i in np.unique(m.face_materials)}
     if any(max(sx.materials[i].emission) > 0 for i in used):
         out.append("emission")
+    if any(m.corner_reflectance is not None for m in meshes):
+        out.append("colour textures (sampled at face corners)")
     if any(m.refine == "catmull_clark" for m in meshes):
         out.append("Catmull-Clark objects")
     if meshes:
@@ -129,7 +131,7 @@ def _lamp_call(index, l):
 # For the messages that report a rebuild (align_export decides what needs one).
 REBUILD_NOTE = ("the engine updates moves, deformations, objects hidden, shown or deleted, materials, lamps "
                 "and the world incrementally, but not new objects, lamps or materials, nor changes of "
-                "topology, material assignment, smooth / flat shading or lamp type")
+                "topology, material assignment, smooth / flat shading, texture colours or lamp type")
 
 
 def _names(items):
@@ -173,6 +175,8 @@ def align_export(old, new):
             return None, f"'{b.name}' changed topology"
         if not _same(a.smooth, b.smooth):
             return None, f"'{b.name}' changed its shading (smooth / flat)"
+        if not _same(a.corner_reflectance, b.corner_reflectance):
+            return None, f"'{b.name}' changed its texture colours"
         b = replace(b, face_materials=to_old[b.face_materials])
         if not np.array_equal(a.face_materials, b.face_materials):
             return None, f"'{b.name}' changed its material assignment"

@@ -20,6 +20,8 @@ import math
 import bpy
 import numpy as np
 
+from . import texture as colour_texture
+
 __all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "export_scene", "to_engine",
            "export_materials_of", "material_values", "world_radiance", "light_values", "dark",
            "POINT_INTENSITY_PER_WATT", "AREA_RADIANCE_FACTOR", "DEFAULT_REFLECTANCE"]
@@ -27,6 +29,8 @@ __all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "export
 POINT_INTENSITY_PER_WATT = 1.0 / (4.0 * math.pi)   # W/sr per W, point and spot
 AREA_RADIANCE_FACTOR = 0.25                        # L = AREA_RADIANCE_FACTOR * P / A_world
 DEFAULT_REFLECTANCE = (0.8, 0.8, 0.8)             # Cycles' shader for faces without a material
+INSIDE = 1e-4                                      # of the way to a face's UV middle, where a corner's texel is read
+MAX_REFLECTANCE = 0.99                             # the engine takes reflectance below one (_below_one)
 
 
 # ----------------------------------------------------------------------------- data classes
@@ -36,6 +40,8 @@ class MaterialExport:
     reflectance: tuple            # rho, linear RGB
     emission: tuple               # emitted radiance, linear RGB, two-sided
     warnings: list = field(default_factory=list)
+    texture: colour_texture.TextureRef = None  # an image on the BSDF's colour: reflectance per face corner
+                                        # (MeshExport.corner_reflectance); `reflectance` is its mean
 
 
 @dataclass
@@ -55,6 +61,7 @@ class MeshExport:
     object_name: str = ""
     visible: bool = True          # False: hidden from render; the engine keeps it out of the lighting
     smooth: np.ndarray = None     # (F,) bool, Shade Smooth per face (Cycles bakes with interpolated normals)
+    corner_reflectance: np.ndarray = None  # (K,3) per exported corner where a material has a texture
 
 
 @dataclass
@@ -127,19 +134,40 @@ def _input_value(node, name, warnings):
         return float(v)
 
 
-def _shader(node, warnings, depth=0):
-    """(reflectance, emission) of a shader node, as numpy (3,) arrays."""
+def _below_one(rho, label, warnings):
+    """rho clipped to [0, MAX_REFLECTANCE]. Cycles renders a white surface with a bounded number of
+    bounces; the engine solves for all of them, and a surface that reflected all it gets would
+    hold its light forever in a closed room."""
+    rho = np.asarray(rho, np.float64)
+    if (rho > MAX_REFLECTANCE).any():
+        warnings.append(f"{label} reflect up to {rho.max():.3g} of the light; taken as {MAX_REFLECTANCE} "
+                        "(a surface cannot reflect all the light it gets)")
+    return np.clip(rho, 0.0, MAX_REFLECTANCE)
+
+
+def _colour(node, name, warnings, textures):
+    """A BSDF's colour input: (3,) array; ones when an image texture on it goes to `textures`."""
+    tex = colour_texture.image_texture(node.inputs[name], warnings) if textures is not None else None
+    if tex is not None:
+        textures.append(tex)
+        return np.ones(3)
+    return np.array(_input_value(node, name, warnings)[:3])
+
+
+def _shader(node, warnings, depth=0, textures=None):
+    """(reflectance, emission) of a shader node, as numpy (3,) arrays. With `textures` (a list), an
+    image texture on the node's own colour is collected there and the colour taken as one."""
     zero = np.zeros(3)
     if node is None or depth > 16:
         return zero, zero
     t = node.type
     if t == 'BSDF_DIFFUSE':
-        return np.array(_input_value(node, "Color", warnings)[:3]), zero
+        return _colour(node, "Color", warnings, textures), zero
     if t == 'EMISSION':
         c = np.array(_input_value(node, "Color", warnings)[:3])
         return zero, c * float(_input_value(node, "Strength", warnings))
     if t == 'BSDF_PRINCIPLED':
-        base = np.array(_input_value(node, "Base Color", warnings)[:3])
+        base = _colour(node, "Base Color", warnings, textures)
         metal = float(_input_value(node, "Metallic", warnings) or 0.0)
         trans = float(_input_value(node, "Transmission", warnings) or 0.0) \
             if node.inputs.get("Transmission") is not None else 0.0
@@ -181,8 +209,10 @@ def _output_node(tree, types=('OUTPUT_MATERIAL',)):
     return outs[0] if outs else None
 
 
-def material_values(mat):
-    """MaterialExport for a bpy Material (or None: Cycles' default grey diffuse)."""
+def material_values(mat, images=None):
+    """MaterialExport for a bpy Material (or None: Cycles' default grey diffuse). `images`: pixels
+    already read in this export (texture.corner_colours)."""
+    images = {} if images is None else images
     if mat is None:
         return MaterialExport("<default>", DEFAULT_REFLECTANCE, (0.0, 0.0, 0.0))
     warnings = []
@@ -190,10 +220,15 @@ def material_values(mat):
         out = _output_node(mat.node_tree)
         if out is None:
             return MaterialExport(mat.name, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), ["no material output"])
-        rho, em = _shader(_linked(out.inputs["Surface"]), warnings)
+        textures = []
+        rho, em = _shader(_linked(out.inputs["Surface"]), warnings, textures=textures)
+        if textures:   # where there are no UVs to sample it at, the image's mean
+            textures[0].factor = rho
+            rho = _below_one(rho * colour_texture.mean_colour(textures[0].image, images), "its colours", warnings)
+            return MaterialExport(mat.name, _rgb(rho), _rgb(em), warnings, textures[0])
     else:
         rho, em = np.array(mat.diffuse_color[:3]), np.zeros(3)
-    return MaterialExport(mat.name, _rgb(rho), _rgb(em), warnings)
+    return MaterialExport(mat.name, _rgb(_below_one(rho, "its colours", warnings)), _rgb(em), warnings)
 
 
 def world_radiance(world):
@@ -213,7 +248,7 @@ def world_radiance(world):
     return np.array(world.color[:3], dtype=np.float64)
 
 
-def export_materials_of(ob, registry, materials):
+def export_materials_of(ob, registry, materials, images=None):
     """Slot -> scene-wide material index lookup table (int32 array, at least one entry)."""
     lut = []
     for slot in ob.material_slots:
@@ -221,7 +256,7 @@ def export_materials_of(ob, registry, materials):
         key = m.original.name if m is not None else None
         if key not in registry:
             registry[key] = len(materials)
-            materials.append(material_values(m.original if m is not None else None))
+            materials.append(material_values(m.original if m is not None else None, images))
         lut.append(registry[key])
     if not lut:
         if None not in registry:
@@ -300,11 +335,44 @@ def _is_animated(ob):
     return False
 
 
+def _corner_reflectance(me, loops, sizes, face_materials, materials, images, label, warnings):
+    """(K,3) reflectance per exported corner, the textured materials' sampled at the corners' UVs, or
+    None when no face's material has a texture."""
+    textured = {int(i) for i in np.unique(face_materials) if materials[i].texture is not None}
+    if not textured:
+        return None
+    rho = np.repeat(np.array([materials[i].reflectance for i in face_materials], np.float64).reshape(-1, 3),
+                    sizes, axis=0)
+    corner_material = np.repeat(face_materials, sizes)
+    for i in sorted(textured):
+        tex = materials[i].texture
+        layer = me.uv_layers.get(tex.uv_map) if tex.uv_map else next(
+            (l for l in me.uv_layers if l.active_render), me.uv_layers.active)
+        if layer is None:
+            warnings.append(f"{label}: no UV map{' ' + tex.uv_map if tex.uv_map else ''} for the texture of "
+                            f"{materials[i].name}; its mean colour is used")
+            continue
+        uv = np.empty(len(me.loops) * 2, np.float32)
+        layer.data.foreach_get("uv", uv)
+        uv = uv.reshape(-1, 2).astype(np.float64)
+        if loops is not None:
+            uv = uv[loops]
+        # A hair towards each face's middle, where Cycles reads a corner (texture.corner_colours).
+        starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        middle = np.repeat(np.add.reduceat(uv, starts) / sizes[:, None], sizes, axis=0)
+        uv += INSIDE * (middle - uv)
+        at = corner_material == i
+        rho[at] = colour_texture.corner_colours(tex, uv[at], images)
+    return _below_one(rho, f"{label}'s texture colours", warnings)
+
+
 def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_render_levels=True, cage=None,
-                warnings=None):
+                warnings=None, images=None):
     """MeshExport of one evaluated object. `cage`: precomputed cage Mesh (see _cages_by_reevaluation);
-    what it cannot reproduce is appended to `warnings`."""
+    what it cannot reproduce is appended to `warnings`. `images`: texture pixels read in this export."""
     warnings = [] if warnings is None else warnings
+    images = {} if images is None else images
+    lut = export_materials_of(ob_eval, registry, materials, images)
     orig = ob_eval.original
     sub = _last_subsurf(orig)
     refine, level = "bilinear", 0
@@ -322,6 +390,8 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
     matches = len(me.loops) == len(orig.data.loops) and len(me.polygons) == len(orig.data.polygons)
     try:
         co, sizes, fv, mi, loops = mesh_arrays(me)
+        fm = lut[np.clip(mi, 0, len(lut) - 1)]
+        rho = _corner_reflectance(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings)
         smooth = np.empty(len(me.polygons), bool)
         me.polygons.foreach_get("use_smooth", smooth)
         if me.use_auto_smooth and smooth.any():
@@ -329,11 +399,9 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
                             "(smooth faces shade with vertex normals)")
     finally:
         cleanup()
-    lut = export_materials_of(ob_eval, registry, materials)
-    fm = lut[np.clip(mi, 0, len(lut) - 1)]
     return MeshExport(name or ob_eval.name, co, sizes, fv, fm.astype(np.int32),
                       np.array(matrix, np.float64), refine, level, loops, matches,
-                      _is_animated(orig), orig.name, smooth=smooth)
+                      _is_animated(orig), orig.name, smooth=smooth, corner_reflectance=rho)
 
 
 # ----------------------------------------------------------------------------- lights
@@ -411,7 +479,7 @@ def export_scene(depsgraph=None, use_render_levels=True):
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     scene = depsgraph.scene_eval
-    registry, materials, meshes, lights, warnings = {}, [], [], [], []
+    registry, materials, meshes, lights, warnings, images = {}, [], [], [], [], {}
     # Collect first: _cages_by_reevaluation re-evaluates the depsgraph, invalidating the iterator.
     items = []
     counts = {}
@@ -437,7 +505,7 @@ def export_scene(depsgraph=None, use_render_levels=True):
             ev = orig.evaluated_get(depsgraph)
             if kind == 'MESH':
                 m = export_mesh(ev, depsgraph, M, registry, materials, name, use_render_levels,
-                                cages.get(orig.name), warnings)
+                                cages.get(orig.name), warnings, images)
                 m.visible = visible
                 if len(m.face_sizes):
                     meshes.append(m)
@@ -468,7 +536,8 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None):
         dyn = m.animated if dynamic is None else (m.name in dynamic)
         ids[m.name] = s.add_mesh(m.positions, m.face_sizes, m.face_vertices, mids[m.face_materials],
                                  m.transform, refine=m.refine, level=m.level, patch_size=patch_size,
-                                 dynamic=bool(dyn), name=m.name, visible=m.visible, smooth=m.smooth)
+                                 dynamic=bool(dyn), name=m.name, visible=m.visible, smooth=m.smooth,
+                                 corner_reflectance=m.corner_reflectance)
     for l in sx.lights:
         if l.kind == "point":
             s.add_point_light(l.position, l.intensity, l.radius)

@@ -8,21 +8,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 SAMPLES = os.path.join(ROOT, "sample_blends")
 
 
-def load_addon_module(name):
-    """Import addon/<name>.py on its own (no dependency on the package being installed)."""
-    key = "_dr_test_" + name
-    if key in sys.modules:
-        return sys.modules[key]
-    spec = importlib.util.spec_from_file_location(key, os.path.join(ROOT, "addon", name + ".py"))
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[key] = mod
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.fixture(scope="session")
 def export():
-    return load_addon_module("export")
+    return load_package().export
 
 
 @pytest.fixture

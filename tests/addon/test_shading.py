@@ -49,20 +49,42 @@ def lit_object(kind, smooth):
     ob = bpy.context.object
     ob.data.polygons.foreach_set("use_smooth", [smooth] * len(ob.data.polygons))
     ob.data.update()
-    mat = bpy.data.materials.new("Grey")  # Diffuse BSDF: Principled's specular layer would add a highlight
+    diffuse(ob).inputs["Color"].default_value = (0.7, 0.7, 0.7, 1)
+    point_lamp(scene, 500.0, (2.0, -1.0, 3.0))
+    return ob
+
+
+def diffuse(ob):
+    """A Diffuse BSDF material on ob (Principled's specular layer would add a highlight): its node."""
+    mat = bpy.data.materials.new(ob.name)
     mat.use_nodes = True
     nodes = mat.node_tree.nodes
     nodes.remove(nodes["Principled BSDF"])
     bsdf = nodes.new("ShaderNodeBsdfDiffuse")
-    bsdf.inputs["Color"].default_value = (0.7, 0.7, 0.7, 1)
     mat.node_tree.links.new(bsdf.outputs["BSDF"], nodes["Material Output"].inputs["Surface"])
     ob.data.materials.append(mat)
+    return bsdf
+
+
+def point_lamp(scene, watts, location):
+    """A point lamp without radius: its direct light at a corner is exact at any sample count."""
     lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", 'POINT'))
-    lamp.data.energy = 500.0
+    lamp.data.energy = watts
     lamp.data.shadow_soft_size = 0.0
-    lamp.location = (2.0, -1.0, 3.0)
+    lamp.location = location
     scene.collection.objects.link(lamp)
-    return ob
+
+
+def direct_light(export, ob):
+    """Our corner values of ob in the scene as exported: the lamps' light, gathered, nothing
+    reflected (and no near-field bounce: not in a bake without bounces)."""
+    scene, ids = export.to_engine(export.export_scene(), engine)
+    settings = engine.Settings.preset("draft")
+    settings.max_shots = 0
+    settings.exact_near_direct = False
+    solver = engine.Solver(scene, settings)
+    solver.solve()
+    return solver.corner_radiance(ids[ob.name])
 
 
 def cycles_corners(ob):
@@ -85,14 +107,6 @@ BOUNDS = {("sphere", True): 0.003, ("sphere", False): 0.003,
 def test_direct_light_follows_the_shading(export, kind, smooth):
     ob = lit_object(kind, smooth)
     ref = cycles_corners(ob)
-    sx = export.export_scene()
-    scene, ids = export.to_engine(sx, engine)
-    settings = engine.Settings.preset("draft")
-    settings.max_shots = 0              # the lamps' light, gathered, and nothing reflected
-    settings.exact_near_direct = False  # a bounce: not in a bake without bounces
-    solver = engine.Solver(scene, settings)
-    solver.solve()
-    ours = solver.corner_radiance(ids[ob.name])
-    err = reference.relative_rms(ours, ref)
+    err = reference.relative_rms(direct_light(export, ob), ref)
     print(f"\n  {kind} {'smooth' if smooth else 'flat'}: {100 * err:.3f}% RMS against Cycles", end="")
     assert err < BOUNDS[kind, smooth]

@@ -11,7 +11,6 @@ the radiosity_engine module), and prints per object and per scene:
 Emitters are left out (their value is exactly their emission on both sides).
 Cycles' own noise is ~0.5% (corners) and ~0.9% (grid) RMS: see README.md.
 """
-import importlib.util
 import os
 import sys
 import time
@@ -29,10 +28,10 @@ SCENES = [("cornell_box", [None]), ("subsurf_room", [None]), ("animated_room", [
 
 
 def load_export():
-    spec = importlib.util.spec_from_file_location("dr_export", os.path.join(ROOT, "addon", "export.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    """addon/export.py, as part of the add-on package from the source tree."""
+    sys.path.insert(0, os.path.join(ROOT, "tests", "addon"))
+    from conftest import load_package
+    return load_package().export
 
 
 def face_frames(m):

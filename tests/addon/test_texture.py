@@ -1,0 +1,84 @@
+"""A colour texture on the BSDF's colour, sampled at the face corners as Cycles samples it. Checked
+on direct light (a point lamp without radius, no bounces), where Cycles' vertex bake is exact at a
+few samples: each corner's value is the lamp's light times the texture's colour at its UV, so a
+wrong texel convention, colour space or wrap shows at once."""
+import os
+import sys
+
+import bpy
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
+sys.path.insert(0, os.path.join(ROOT, "build", "engine"))
+pytest.importorskip("radiosity_engine")
+import cycles_settings  # noqa: E402
+import reference  # noqa: E402
+from test_shading import cycles_corners, diffuse, direct_light, point_lamp  # noqa: E402
+
+# 4 x 4 texels, each its own colour, none near white (the engine's limit is below one)
+TEXELS = np.random.default_rng(7).uniform(0.05, 0.9, (4, 4, 3))
+
+
+def textured_grid(interpolation, colorspace, uv_scale):
+    """A 5 x 5-quad grid whose Diffuse BSDF takes its colour from the 4 x 4 image, under a lamp."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    cycles_settings.unbiased(scene, 4, 0, 0)  # direct light only: exact at any sample count
+    scene.render.bake.target = 'VERTEX_COLORS'
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=6, y_subdivisions=6, size=2.0)
+    ob = bpy.context.object
+    uv = np.empty(len(ob.data.loops) * 2, np.float32)
+    ob.data.uv_layers.active.data.foreach_get("uv", uv)
+    ob.data.uv_layers.active.data.foreach_set("uv", uv * uv_scale)   # past 1: the image repeats
+    image = bpy.data.images.new("Texels", 4, 4, alpha=False)
+    image.colorspace_settings.name = colorspace
+    image.pixels.foreach_set(np.concatenate([TEXELS, np.ones((4, 4, 1))], 2).astype(np.float32).ravel())
+    bsdf = diffuse(ob)
+    tex = bsdf.id_data.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tex.interpolation = interpolation
+    bsdf.id_data.links.new(tex.outputs["Color"], bsdf.inputs["Color"])
+    point_lamp(scene, 300.0, (0.5, -0.3, 2.0))
+    return ob
+
+
+CASES = [("Linear", "sRGB", 1.0), ("Closest", "sRGB", 1.0), ("Linear", "Non-Color", 1.0), ("Linear", "sRGB", 1.7)]
+
+
+@pytest.mark.parametrize("interpolation, colorspace, uv_scale", CASES,
+                         ids=[f"{i}-{c}-uv{s}" for i, c, s in CASES])
+def test_texture_colours_reach_the_corners_as_cycles_bakes_them(addon, interpolation, colorspace, uv_scale):
+    ob = textured_grid(interpolation, colorspace, uv_scale)
+    ref = cycles_corners(ob)
+    assert addon.export.export_scene().meshes[0].corner_reflectance is not None
+    err = reference.relative_rms(direct_light(addon.export, ob), ref)
+    print(f"\n  {interpolation} {colorspace} uv x{uv_scale}: {100 * err:.3f}% RMS against Cycles", end="")
+    # the colours vary 18-fold from texel to texel: a wrong texel or colour space is tens of percent
+    assert err < 0.003
+
+
+def test_a_textured_bake_reports_the_texture_and_a_texture_change_rebuilds(addon):
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    scene = bpy.context.scene
+    scene.radiosity.preset = 'DRAFT'
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    assert "colour textures" in scene.radiosity.last_effects
+    before = addon.export.export_scene()
+    image = bpy.data.images["Texels"]
+    image.pixels.foreach_set(np.full(4 * 4 * 4, 0.5, np.float32))
+    after = addon.export.export_scene()
+    state, reason = addon.bake.align_export(before, after)
+    assert state is None and "texture" in reason
+
+
+def test_white_is_taken_just_below_one_and_said_so(addon):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    mat = bpy.data.materials.new("Snow")
+    mat.use_nodes = True
+    mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (1, 1, 1, 1)
+    m = addon.export.material_values(mat)
+    assert max(m.reflectance) == addon.export.MAX_REFLECTANCE < 1
+    assert any("cannot reflect all" in w for w in m.warnings)
