@@ -1,0 +1,72 @@
+// The dB cache (issue 4; the paper's per-shooter dB, sec. 5): what the scene without a moved object
+// does to the rays whose visibility that object's moves changed.
+//
+// An update traces each candidate ray against the moved object alone, before and after; a ray the
+// move changed then needs a trace of the whole scene without the object (occluded_without) to know
+// whether anything else blocks it. That answer depends on the ray and the other objects only: not
+// on where the object is, nor on any light. Kept, it serves every later move of the same object
+// that changes the same ray: the exit zone of a move back, or of the next step of a drag, is the
+// enter zone of the move before. The light a ray carries comes from the shooters' current totals
+// and is worked out anew, so nothing kept goes stale as shooters shoot on; visibility is all there
+// is to keep. Sample positions are deterministic, so a static source and receiver give the same
+// ray, bit for bit, each update: the key is its exact bits, compared whole, not a hash of them.
+//
+// The answers hold only while no other object changes: another object's move forgets them (own).
+// Memory stays under the cap (table and one update's new answers together); when full, the table
+// starts over with the latest update's answers, the ones the next move most likely asks for.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <mutex>
+#include <vector>
+
+namespace radiosity {
+
+class DbCache {
+ public:
+  enum Answer : uint32_t { unknown = 0, clear = 1, blocked = 2 };
+
+  explicit DbCache(double megabytes);
+
+  // The answers are about rays `object` changed; another object's geometry or visibility just
+  // changed, so those about any other are wrong now and go.
+  void own(int object);
+  // Read-only: safe from every thread of a gather while others stage().
+  Answer find(const RTCRay& ray) const;
+  // Answers just traced, from any thread of a gather: ray rays[which[k]] as find() was asked, and
+  // traced[k] as it came back; `hits` other rays find() answered. Kept by commit(), once the gather
+  // is over.
+  void stage(const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count, unsigned hits);
+  void commit();
+
+  struct Counts {
+    long long hits = 0, misses = 0;
+  };
+  Counts take_counts();  // since the last call
+  std::size_t entries() const { return entries_; }
+  std::size_t bytes() const;  // held now: table and staged answers
+
+ private:
+  struct Entry {
+    std::array<uint32_t, 7> key{};  // origin, direction, tfar: the ray's bits
+    uint32_t answer = unknown;
+  };
+  static Entry entry(const RTCRay& ray, Answer answer);
+  std::size_t slot(const Entry& e) const;  // where e is, or the empty slot it would go to
+  void insert(const Entry& e);
+  void resize(std::size_t slots);
+
+  std::size_t max_slots_ = 0;  // a power of two: the table at most, leaving room to stage half as many
+  std::vector<Entry> table_;   // open addressing, linear probing, at most half full
+  std::size_t entries_ = 0;
+  int owner_ = -1;
+  std::mutex mutex_;  // guards what stage() writes
+  std::vector<Entry> staged_;
+  Counts counts_;
+};
+
+}  // namespace radiosity
