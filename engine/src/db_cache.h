@@ -11,9 +11,13 @@
 // is to keep. Sample positions are deterministic, so a static source and receiver give the same
 // ray, bit for bit, each update: the key is its exact bits, compared whole, not a hash of them.
 //
+// Answers are kept per ray origin (a receiving point's side), sorted: a gather asks about one
+// receiver's rays in a row, so a look-up reads memory the one before brought in. Kept in one table
+// by hash, every look-up missed the processor's caches, and updates got slower, not faster.
+//
 // The answers hold only while no other object changes: another object's move forgets them (own).
-// Memory stays under the cap (table and one update's new answers together); when full, the table
-// starts over with the latest update's answers, the ones the next move most likely asks for.
+// Memory stays under the cap (what is kept and one update's new answers together); when full, the
+// cache starts over with the latest update's answers, the ones the next move most likely asks for.
 #pragma once
 
 #include <embree3/rtcore.h>
@@ -35,8 +39,8 @@ class DbCache {
   // The answers are about rays `object` changed; another object's geometry or visibility just
   // changed, so those about any other are wrong now and go.
   void own(int object);
-  // Read-only: safe from every thread of a gather while others stage().
-  Answer find(const RTCRay& ray) const;
+  // What is known of each ray; read-only, so safe from every thread of a gather while others stage().
+  void find(const RTCRay* rays, unsigned count, Answer* answers) const;
   // Answers just traced, from any thread of a gather: ray rays[which[k]] as find() was asked, and
   // traced[k] as it came back; `hits` other rays find() answered. Kept by commit(), once the gather
   // is over.
@@ -48,24 +52,31 @@ class DbCache {
   };
   Counts take_counts();  // since the last call
   std::size_t entries() const { return entries_; }
-  std::size_t bytes() const;  // held now: table and staged answers
+  std::size_t bytes() const;  // held now
 
  private:
-  struct Entry {
-    std::array<uint32_t, 7> key{};  // origin, direction, tfar: the ray's bits
-    uint32_t answer = unknown;
+  using Origin = std::array<uint32_t, 3>;  // bits
+  using Rest = std::array<uint32_t, 4>;    // direction and tfar, bits
+  struct Known {
+    Rest rest;
+    uint32_t answer;
   };
-  static Entry entry(const RTCRay& ray, Answer answer);
-  std::size_t slot(const Entry& e) const;  // where e is, or the empty slot it would go to
-  void insert(const Entry& e);
-  void resize(std::size_t slots);
+  struct Staged {
+    Origin origin;
+    Known known;
+  };
+  static Origin origin_of(const RTCRay& ray);
+  static Rest rest_of(const RTCRay& ray);
+  std::size_t kept_bytes(std::size_t entries, std::size_t origins) const;
+  void forget();
 
-  std::size_t max_slots_ = 0;  // a power of two: the table at most, leaving room to stage half as many
-  std::vector<Entry> table_;   // open addressing, linear probing, at most half full
+  std::size_t cap_ = 0;            // bytes: three quarters for what is kept, a quarter for staging
+  std::vector<Origin> origins_;    // sorted
+  std::vector<std::vector<Known>> known_;  // per origin, sorted by rest
   std::size_t entries_ = 0;
   int owner_ = -1;
   std::mutex mutex_;  // guards what stage() writes
-  std::vector<Entry> staged_;
+  std::vector<Staged> staged_;
   Counts counts_;
 };
 

@@ -246,9 +246,11 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
 }
 
 unsigned OcclusionBatch::trace_without() {
+  DbCache::Answer known[kCapacity];
+  db_->find(rays_, count_, known);
   RTCRay missed[kCapacity];
   unsigned where[kCapacity], misses = 0;
-  for (unsigned i = 0; i < count_; ++i) switch (db_->find(rays_[i])) {
+  for (unsigned i = 0; i < count_; ++i) switch (known[i]) {
       case DbCache::unknown: missed[misses] = rays_[i], where[misses++] = i; break;
       case DbCache::blocked: rays_[i].tfar = -INFINITY; break;
       case DbCache::clear: break;

