@@ -5,10 +5,11 @@
 // move changed then needs a trace of the whole scene without the object (occluded_without) to know
 // whether anything else blocks it. That answer depends on the ray and the other objects only: not
 // on where the object is, nor on any light. Kept, it serves every later move of the same object
-// that changes the same ray: the exit zone of a move back, or of the next step of a drag, is the
-// enter zone of the move before. The light a ray carries comes from the shooters' current totals
-// and is worked out anew, so nothing kept goes stale as shooters shoot on; visibility is all there
-// is to keep. Sample positions are deterministic, so a static source and receiver give the same
+// that changes the same ray: a move back changes exactly the rays the move there did (its exit zone
+// that move's enter zone, and the reverse). The next step of a drag asks about few of them: rays
+// that the place it leaves alone blocked, or alone did not. The light a ray carries comes from the
+// shooters' current totals and is worked out anew, so nothing kept goes stale as shooters shoot
+// on; visibility is all there is to keep. Sample positions are deterministic, so a static source and receiver give the same
 // ray, bit for bit, each update: the key is its exact bits, compared whole, not a hash of them.
 //
 // Answers are kept per ray origin (a receiving point's side), sorted: a gather asks about one
