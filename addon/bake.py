@@ -56,6 +56,7 @@ def engine_settings(props, engine=None):
     s.threshold = float(props.threshold)
     s.relaxation = float(props.relaxation)
     s.exact_near_direct = bool(props.exact_near_direct)
+    s.db_cache_mb = float(props.db_cache_mb)
     return s
 
 
@@ -106,9 +107,9 @@ def effects_of(sx):
 
 # ----------------------------------------------------------------------------- incremental updates
 def settings_key(settings):
-    """What must match for an engine Solver to be reused."""
+    """What must match for an engine Solver to be reused (the dB cache's cap is fixed in it too)."""
     from .properties import KNOBS
-    return tuple(getattr(settings, k) for k in KNOBS)
+    return tuple(getattr(settings, k) for k in KNOBS + ("db_cache_mb",))
 
 
 def _same(a, b):

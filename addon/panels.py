@@ -71,6 +71,7 @@ def draw_settings(layout, context):
     col.prop(props, "threshold")
     col.prop(props, "relaxation")
     layout.prop(props, "exact_near_direct")
+    layout.prop(props, "db_cache_mb")
 
 
 def draw_results(layout, context):

@@ -47,6 +47,11 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
         description="Each corner evaluates the direct light of the surfaces right beside it where it "
                     "lands instead of interpolating it: right at the foot of an object, where its "
                     "shadow edge starts (off at Draft: it costs time on every update)")
+    db_cache_mb: FloatProperty(
+        name="dB Cache (MB)", default=256.0, min=0.0, soft_max=4096.0, precision=0,
+        description="Memory an update may keep of what the scene around a moving object does to the "
+                    "rays its moves change, so that moving it back or on traces them no more; past "
+                    "it they are traced again (same result). 0: no cache. Presets leave it as it is")
     live_update: BoolProperty(
         name="Live Update", default=False,
         description="Update the lighting on frame change and while editing: only what changed is "

@@ -1,9 +1,10 @@
 """Dynamic update cost: per-frame incremental update against a full re-solve of the same frame.
 
-    blender -b --factory-startup --python bench/dynamic_update.py -- [preset] [frames] [full_repeats] [scenes]
+    blender -b --factory-startup --python bench/dynamic_update.py -- [preset] [frames] [full_repeats] [scenes] [db_cache_mb]
 
 preset: draft (default) | default | high; frames: frames played per scene (default 8);
-full_repeats: full re-solves timed per scene (default 2); scenes: comma-separated names (all). Scenes:
+full_repeats: full re-solves timed per scene (default 2); scenes: comma-separated names (all);
+db_cache_mb: the dB cache's cap (the add-on's default; 0 = no cache). Scenes:
 
   animated_room  the sample: a box moves and the point lamp ramps 30 W -> 120 W every frame
   room_20k       a 4 m room of ~20k vertices, one 0.4 m box moving across the floor, lamp fixed
@@ -12,8 +13,12 @@ full_repeats: full re-solves timed per scene (default 2); scenes: comma-separate
 Incremental = what live update does on a frame change (export, diff, Solver.update(), colours,
 write-back) through the add-on's own handler; "update" is the engine's Solver.update() alone,
 "frame" the whole scene.frame_set() (depsgraph evaluation, handlers, write-back). Full = a new Solver
-and solve() of the same frame's export. Medians; no timed asserts. The engine reports no dB cache
-size, so none is shown.
+and solve() of the same frame's export. Medians; no timed asserts.
+
+The dB cache: the frames are played forward, then back (each move the reverse of one before);
+"cpu s" is the process CPU time of an update (run with OMP_NUM_THREADS=1 for one thread's), "rays"
+all rays it traced, "changed" the rays the move changed (each needs a trace of the scene without
+the box, unless the cache answers: "hits"), "cache MB" what the cache holds after the last frame.
 """
 import os
 import statistics
@@ -33,11 +38,24 @@ args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 PRESET = (args[0] if args else "draft").upper()
 FRAMES = int(args[1]) if len(args) > 1 else 8
 FULL_REPEATS = int(args[2]) if len(args) > 2 else 2
-SCENES = args[3].split(",") if len(args) > 3 else ["animated_room", "room_20k", "room_10k"]
+SCENES = args[3].split(",") if len(args) > 3 and args[3] else ["animated_room", "room_20k", "room_10k"]
+DB_CACHE_MB = float(args[4]) if len(args) > 4 else None
 
 pkg = load_package()
 pkg.register()
 live = pkg.live_update
+updated = []  # per Solver.update() through the add-on: its stats and process CPU time
+_update = pkg.bake.BakeJob._update
+
+
+def timed_update(job):
+    t = time.process_time()
+    st = _update(job)
+    updated.append(dict(st, cpu=time.process_time() - t))
+    return st
+
+
+pkg.bake.BakeJob._update = timed_update
 
 
 def grid(origin, u, v, nu, nv):
@@ -109,6 +127,8 @@ def med(xs):
 def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     scene = make()
     scene.radiosity.preset = PRESET
+    if DB_CACHE_MB is not None:
+        scene.radiosity.db_cache_mb = DB_CACHE_MB
     scene.radiosity.live_update = True
     verts = sum(len(o.data.vertices) for o in scene.objects if o.type == 'MESH')
     scene.frame_set(scene.frame_start)             # live update's first, full solve
@@ -117,6 +137,7 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     span = scene.frame_end - scene.frame_start
     todo = sorted({scene.frame_start + max(1, round(span * (i + 1) / frames)) for i in range(frames)})
     inc, upd, frame_wall, touched, writes = [], [], [], [], []
+    del updated[:]
     for f in todo:
         t = time.perf_counter()
         scene.frame_set(f)
@@ -127,6 +148,20 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         upd.append(info["seconds_solve"])
         writes.append(info["seconds_write"])
         touched.append(info["touched_points"] / max(1, info["points"]))
+
+    def played():  # the updates since the last call
+        d = dict(cpu=med([u["cpu"] for u in updated]), rays=med([u["rays"] - u["rays_before"] for u in updated]),
+                 changed=med([u["db_hits"] + u["db_misses"] for u in updated]),
+                 hits=med([u["db_hits"] for u in updated]))
+        del updated[:]
+        return d
+
+    db = {"forward": played()}
+    for f in todo[-2::-1]:
+        scene.frame_set(f)
+        assert live.last_sync[scene.name]["mode"] == "incremental"
+    db["back"] = played()
+    db_mb = live.live_jobs[scene.name].stats["db_bytes"] / 2 ** 20
     # full re-solves of frames just played (same export, a new Solver)
     full = []
     for f in todo[-full_repeats:]:
@@ -148,7 +183,8 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         baked.append(time.perf_counter() - t)
     return dict(scene=name, vertices=verts, points=first["points"], frames=len(todo), full=med(full),
                 update=med(upd), incremental=med(inc), frame=med(frame_wall), write=med(writes),
-                touched=med(touched), first=first["seconds_solve"], baked=med(baked))
+                touched=med(touched), first=first["seconds_solve"], baked=med(baked), db=db, db_mb=db_mb,
+                db_cap=scene.radiosity.db_cache_mb)
 
 
 def main():
@@ -166,6 +202,16 @@ def main():
         print(f"{r['scene']:14} {r['vertices']:8d} {r['points']:7d} {r['full']:8.3f} {r['update']:9.3f} "
               f"{ratio:6.1f} {100 * r['touched']:7.1f}% {r['incremental']:8.3f} {1000 * r['write']:8.2f} "
               f"{r['frame']:8.3f} {1 / r['frame']:6.1f} {1 / r['baked']:9.1f}")
+    print()
+    print(f"dB cache (cap {rows[0]['db_cap']:g} MB): the frames above played forward, then back; medians per update")
+    head = (f"{'scene':14} {'way':8} {'cpu s':>7} {'rays':>10} {'changed':>9} {'hits':>9} {'hit %':>6} "
+            f"{'cache MB':>8}")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        for way, d in r["db"].items():
+            print(f"{r['scene']:14} {way:8} {d['cpu']:7.3f} {d['rays']:10.0f} {d['changed']:9.0f} {d['hits']:9.0f} "
+                  f"{100 * d['hits'] / max(1, d['changed']):6.1f} {r['db_mb']:8.2f}")
     print()
     print("full s: new Solver + solve() of a played frame; update s: Solver.update() of a frame change;")
     print("ratio = full / update (goal 50); touched: receiving points the update recomputed (engine's")

@@ -58,6 +58,10 @@ py::dict stats_dict(const SolveStats& s) {
   d["cancelled"] = s.cancelled;
   d["warnings"] = s.warnings;
   d["touched_points"] = s.touched_points;
+  d["db_hits"] = s.db_hits;
+  d["db_misses"] = s.db_misses;
+  d["db_entries"] = s.db_entries;
+  d["db_bytes"] = s.db_bytes;
   return d;
 }
 
@@ -160,7 +164,8 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def_readwrite("threshold", &Settings::threshold)
       .def_readwrite("relaxation", &Settings::relaxation)
       .def_readwrite("exact_near_direct", &Settings::exact_near_direct)
-      .def_readwrite("max_shots", &Settings::max_shots);
+      .def_readwrite("max_shots", &Settings::max_shots)
+      .def_readwrite("db_cache_mb", &Settings::db_cache_mb);
 
   py::class_<SceneDesc>(m, "Scene")
       .def(py::init<>())

@@ -94,12 +94,18 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   next.validate();
   std::map<int, RefinedMesh> refined;
   for (const auto& [o, m] : changes.meshes) refined[o] = refine_object(mesh, o, m);
+  auto done = [&]() -> const SolveStats& {
+    DbCache::Counts db = db_cache.take_counts();
+    stats.db_hits = db.hits, stats.db_misses = db.misses;
+    stats.db_entries = db_cache.entries(), stats.db_bytes = db_cache.bytes();
+    stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return stats;
+  };
 
   if (!injected) {  // nothing gathered yet: the first solve will see the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, refined[o]);
     scene = std::move(next);
-    stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return stats;
+    return done();
   }
   double light = injected_power;
   if (changes.world) change_world(*changes.world);
@@ -115,8 +121,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     solve(progress);
   else
     propagate(progress, Sampling::full);
-  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return stats;
+  return done();
 }
 
 void Solver::Impl::restart() {
@@ -242,6 +247,7 @@ void Solver::Impl::change_material(int index, const Material& m) {
 }
 
 void Solver::Impl::place(int object, const MeshDesc& m, const RefinedMesh& refined) {
+  if (scene.meshes[object].visible || m.visible) db_cache.own(object);  // a hidden one blocks no ray
   scene.meshes[object] = m;
   place_object(mesh, object, m, refined);
   tree.rebuild(mesh, object);  // as a fresh solve would cluster it there: a refit was 0.4% off a curved one
@@ -385,6 +391,7 @@ void Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
                  if (batch.rays_pushed() > pushed) touched[i] = 1;
                },
                kWhole);
+    db_cache.commit();
   };
   gather_changed(others_direct);
   apply_direct_delta();

@@ -29,7 +29,8 @@ constexpr double kRelaxAbove = 2.0;
 
 }  // namespace
 
-Solver::Impl::Impl(SceneDesc s, const Settings& st) : scene(std::move(s)), settings(st) {
+Solver::Impl::Impl(SceneDesc s, const Settings& st)
+    : scene(std::move(s)), settings(st), db_cache(settings.db_cache_mb) {
   scene.validate();
   mesh = build_patch_mesh(scene, settings);
   tree = ClusterTree::build(mesh);

@@ -42,6 +42,7 @@ struct Solver::Impl {
   std::vector<int> patch_shooter;  // patch -> index in shooters
   void cut_shooters();             // both, from the tree as it is
   mutable ShotCache shot_cache;  // filled as shots are built
+  DbCache db_cache;              // of the object that moved last (dynamic_update.cpp)
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
   std::vector<dvec3> reflected_front, reflected_back;  // the part of it reflected light brought
@@ -86,7 +87,7 @@ struct Solver::Impl {
   OcclusionBatch delta_batch() { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); }
   // One adding only what the last move of `changed_object`, within `zone`, changed.
   OcclusionBatch changed_batch(int changed_object, const Zone& zone) {
-    return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed_object, zone);
+    return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed_object, zone, db_cache);
   }
   // Adds the gathered delta, of one kind of light, to the solution and, reflected, to the unshot
   // radiance.

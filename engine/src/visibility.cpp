@@ -235,14 +235,30 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
   }
   if (changed_object_ >= 0) {
     count_ = keep_changed();
-    vis_.occluded_without(changed_object_, rays_, count_);
+    traced_ += trace_without();
   } else {
     vis_.occluded(rays_, count_);
+    traced_ += count_;
   }
   for (unsigned i = 0; i < count_; ++i)
     if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
-  traced_ += count_;
   count_ = 0;
+}
+
+unsigned OcclusionBatch::trace_without() {
+  DbCache::Answer known[kCapacity];
+  db_->find(rays_, count_, known);
+  RTCRay missed[kCapacity];
+  unsigned where[kCapacity], misses = 0;
+  for (unsigned i = 0; i < count_; ++i) switch (known[i]) {
+      case DbCache::unknown: missed[misses] = rays_[i], where[misses++] = i; break;
+      case DbCache::blocked: rays_[i].tfar = -INFINITY; break;
+      case DbCache::clear: break;
+    }
+  vis_.occluded_without(changed_object_, missed, misses);
+  if (count_ > 0) db_->stage(rays_, where, missed, misses, count_ - misses);
+  for (unsigned k = 0; k < misses; ++k) rays_[where[k]].tfar = missed[k].tfar;
+  return misses;
 }
 
 }  // namespace radiosity

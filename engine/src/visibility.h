@@ -3,6 +3,7 @@
 #pragma once
 
 #include "bounds.h"
+#include "db_cache.h"
 #include "patch_mesh.h"
 #include "radiosity/lanes.h"
 
@@ -108,7 +109,8 @@ class Visibility {
 // With `changed_object`, a batch carries only what that object's last move changed: a ray counts
 // with + if the object blocked it before and not now, - if the reverse, and only if nothing else
 // blocks it; a ray the object blocks both times, or neither, costs no trace of the full scene, and
-// one that passes through neither of the object's bounding spheres (`zone`) no trace at all.
+// one that passes through neither of the object's bounding spheres (`zone`) no trace at all. What
+// else blocks a changed ray comes from the dB cache when it knows, else from a trace it is offered.
 class OcclusionBatch {
  public:
   // The accumulators hold receivers from `first_receiver` on: points that are not receiving points
@@ -118,10 +120,12 @@ class OcclusionBatch {
     // Tracing changes only tfar: the fields every ray shares are written once, not once a ray.
     for (RTCRay& r : rays_) r = make_ray(dvec3(0.0), dvec3(0.0), 0.0f);
   }
-  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object, const Zone& zone)
+  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object, const Zone& zone,
+                 DbCache& db)
       : OcclusionBatch(vis, front, back) {
     changed_object_ = changed_object;
     zone_ = &zone;
+    db_ = &db;
   }
   ~OcclusionBatch() { flush(); }
 
@@ -175,6 +179,7 @@ class OcclusionBatch {
     if (++count_ == kCapacity) flush();
   }
   unsigned keep_changed();  // leaves the rays the changed object's move made a difference to
+  unsigned trace_without();  // occluded_without for the kept rays, through the dB cache; returns rays traced
 
   static constexpr unsigned kCapacity = 256;
   const Visibility& vis_;
@@ -182,6 +187,7 @@ class OcclusionBatch {
   dvec3* back_;
   int changed_object_ = -1;
   const Zone* zone_ = nullptr;
+  DbCache* db_ = nullptr;
   int first_ = 0;
   std::array<double, 2> share_{1.0, 1.0};
   RTCRay rays_[kCapacity];

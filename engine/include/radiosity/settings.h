@@ -27,6 +27,10 @@ struct Settings {
   // where it lands rather than interpolated from patch corners (near_direct.cpp).
   bool exact_near_direct = true;
   long max_shots = 2000000;  // a guard: rho near 1 must end, the residual says how far it got
+  // Memory for the dB cache (db_cache.h), in MB: what the scene without a moving object does to the
+  // rays its moves change, so that a move back traces them no more. Full, it starts over, and rays
+  // it no longer holds are traced again: the same results. 0: no cache. About 20 bytes a ray.
+  double db_cache_mb = 256.0;
 
   static Settings preset(const std::string& name);  // draft, default, high, reference
   static std::vector<std::string> preset_names();

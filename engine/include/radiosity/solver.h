@@ -19,6 +19,10 @@ struct SolveStats {
   long long rays = 0;        // visibility rays so far
   int patches = 0, points = 0, shooters = 0;
   long long touched_points = 0;  // last update(): receiving points whose light was recomputed
+  // Last update(): rays a move changed whose whole-scene trace the dB cache spared (hits) or that
+  // were traced (misses); what it holds after it (Settings::db_cache_mb).
+  long long db_hits = 0, db_misses = 0;
+  long long db_entries = 0, db_bytes = 0;
   bool converged = false;
   bool cancelled = false;
   bool diverged = false;     // the unshot light grew tenfold: the scene is beyond what the engine

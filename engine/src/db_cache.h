@@ -1,0 +1,84 @@
+// The dB cache (issue 4; the paper's per-shooter dB, sec. 5): what the scene without a moved object
+// does to the rays whose visibility that object's moves changed.
+//
+// An update traces each candidate ray against the moved object alone, before and after; a ray the
+// move changed then needs a trace of the whole scene without the object (occluded_without) to know
+// whether anything else blocks it. That answer depends on the ray and the other objects only: not
+// on where the object is, nor on any light. Kept, it serves every later move of the same object
+// that changes the same ray: a move back changes exactly the rays the move there did (its exit zone
+// that move's enter zone, and the reverse). The next step of a drag asks about few of them: rays
+// that the place it leaves alone blocked, or alone did not. The light a ray carries comes from the
+// shooters' current totals and is worked out anew, so nothing kept goes stale as shooters shoot
+// on; visibility is all there is to keep. Sample positions are deterministic, so a static source and receiver give the same
+// ray, bit for bit, each update: the key is its exact bits, compared whole, not a hash of them.
+//
+// Answers are kept per ray origin (a receiving point's side), sorted: a gather asks about one
+// receiver's rays in a row, so a look-up reads memory the one before brought in. Kept in one table
+// by hash, every look-up missed the processor's caches, and updates got slower, not faster.
+//
+// The answers hold only while no other object changes: another object's move forgets them (own).
+// Memory stays under the cap (what is kept and one update's new answers together); when full, the
+// cache starts over with the latest update's answers, the ones the next move most likely asks for.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <mutex>
+#include <vector>
+
+namespace radiosity {
+
+class DbCache {
+ public:
+  enum Answer : uint32_t { unknown = 0, clear = 1, blocked = 2 };
+
+  explicit DbCache(double megabytes);
+
+  // The answers are about rays `object` changed; another object's geometry or visibility just
+  // changed, so those about any other are wrong now and go.
+  void own(int object);
+  // What is known of each ray; read-only, so safe from every thread of a gather while others stage().
+  void find(const RTCRay* rays, unsigned count, Answer* answers) const;
+  // Answers just traced, from any thread of a gather: ray rays[which[k]] as find() was asked, and
+  // traced[k] as it came back; `hits` other rays find() answered. Kept by commit(), once the gather
+  // is over.
+  void stage(const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count, unsigned hits);
+  void commit();
+
+  struct Counts {
+    long long hits = 0, misses = 0;
+  };
+  Counts take_counts();  // since the last call
+  std::size_t entries() const { return entries_; }
+  std::size_t bytes() const;  // held now
+
+ private:
+  using Origin = std::array<uint32_t, 3>;  // bits
+  using Rest = std::array<uint32_t, 4>;    // direction and tfar, bits
+  struct Known {
+    Rest rest;
+    uint32_t answer;
+  };
+  struct Staged {
+    Origin origin;
+    Known known;
+  };
+  static Origin origin_of(const RTCRay& ray);
+  static Rest rest_of(const RTCRay& ray);
+  std::size_t kept_bytes(std::size_t entries, std::size_t origins) const;
+  void forget();
+
+  std::size_t cap_ = 0;            // bytes: three quarters for what is kept, a quarter for staging
+  std::vector<Origin> origins_;    // sorted
+  std::vector<std::vector<Known>> known_;  // per origin, sorted by rest
+  std::size_t entries_ = 0;
+  int owner_ = -1;
+  std::mutex mutex_;  // guards what stage() writes
+  std::vector<Staged> staged_;
+  Counts counts_;
+};
+
+}  // namespace radiosity
