@@ -570,8 +570,8 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
           const ShotPatch& patch = shot.patches[sc.patch];
           if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
           if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
-            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, [&] { return *factor; }, sc.radiance,
-                       patch.lift, batch);
+            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal,
+                       [&]() __attribute__((always_inline)) { return *factor; }, sc.radiance, patch.lift, batch);
             continue;
           }
           exact_cell(receiver, x, n, shot, sc, glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1, batch);
@@ -584,8 +584,9 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       Sphere reached = far ? far_end(e, batch.visibility().epsilon()) : Sphere{e.centroid, e.radius};
       if (zone && !zone->may_cross(x, reached)) continue;
       if (far) {
-        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, [&] { return cluster_form_factor(x, n, e); },
-                   e.radiance, e.anchor_lift, batch);
+        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal,
+                   [&]() __attribute__((always_inline)) { return cluster_form_factor(x, n, e); }, e.radiance,
+                   e.anchor_lift, batch);
         continue;
       }
       stack[top++] = e.right;
