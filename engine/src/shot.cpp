@@ -22,6 +22,21 @@ long long cell_key(int patch, int cells_per_side, int side) {
 }
 long long member_key(int node, int side) { return 2LL * node + side; }
 
+// Radiance a patch sends from side `side` at (u, v), interpolated over the corners in `corners`
+// (a bit each) alone. Inline: near cells ask it once a piece, and called it ran in the baseline ISA
+// (dispatch.h).
+inline dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, double v) {
+  double weight[4] = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
+  dvec3 sum(0.0);
+  double total = 0.0;
+  for (int c = 0; c < 4; ++c) {
+    if (!(corners & (1 << c))) continue;
+    sum += weight[c] * patch.radiance[c][side];
+    total += weight[c];
+  }
+  return total > 0 ? sum / total : dvec3(0.0);
+}
+
 // Copies a shooter's subtree into a shot. Radiance is interpolated or averaged only over what the
 // sample point sees: a patch or cluster running under a wall would otherwise carry light from the
 // lit room into the dark one. What a sample sees of its own shooter does not change while the
@@ -255,18 +270,6 @@ void set_frontier(Shot& shot, std::vector<int> frontier) {
       block.spread.xy[l] = e.spread.xy, block.spread.xz[l] = e.spread.xz, block.spread.yz[l] = e.spread.yz;
     }
   }
-}
-
-dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, double v) {
-  double weight[4] = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
-  dvec3 sum(0.0);
-  double total = 0.0;
-  for (int c = 0; c < 4; ++c) {
-    if (!(corners & (1 << c))) continue;
-    sum += weight[c] * patch.radiance[c][side];
-    total += weight[c];
-  }
-  return total > 0 ? sum / total : dvec3(0.0);
 }
 
 bool same_light(const Shot& a, const Shot& b) {
@@ -570,8 +573,8 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
           const ShotPatch& patch = shot.patches[sc.patch];
           if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
           if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
-            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal, [&] { return *factor; }, sc.radiance,
-                       patch.lift, batch);
+            far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal,
+                       [&]() __attribute__((always_inline)) { return *factor; }, sc.radiance, patch.lift, batch);
             continue;
           }
           exact_cell(receiver, x, n, shot, sc, glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1, batch);
@@ -584,8 +587,9 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       Sphere reached = far ? far_end(e, batch.visibility().epsilon()) : Sphere{e.centroid, e.radius};
       if (zone && !zone->may_cross(x, reached)) continue;
       if (far) {
-        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal, [&] { return cluster_form_factor(x, n, e); },
-                   e.radiance, e.anchor_lift, batch);
+        far_sample(receiver, x, n, e.centroid, e.anchor, e.normal,
+                   [&]() __attribute__((always_inline)) { return cluster_form_factor(x, n, e); }, e.radiance,
+                   e.anchor_lift, batch);
         continue;
       }
       stack[top++] = e.right;

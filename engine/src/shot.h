@@ -117,10 +117,6 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
 void add_patch(Shot& shot, const ShotPatch& patch, const std::vector<Cell>& cells, int k,
                const std::vector<uint8_t>* const seen[2]);
 
-// Radiance a patch sends from side `side` at (u, v), interpolated over the corners in `corners`
-// (a bit each) alone.
-dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, double v);
-
 // Makes `frontier` (indices into shot.elements) the shot's frontier, once its elements are all in.
 void set_frontier(Shot& shot, std::vector<int> frontier);
 
