@@ -341,8 +341,8 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
     textured = {int(i) for i in np.unique(face_materials) if materials[i].texture is not None}
     if not textured:
         return None
-    rho = np.repeat(np.array([materials[i].reflectance for i in face_materials], np.float64).reshape(-1, 3),
-                    sizes, axis=0)
+    per_material = np.array([m.reflectance for m in materials], np.float64).reshape(-1, 3)
+    rho = np.repeat(per_material[face_materials], sizes, axis=0)
     corner_material = np.repeat(face_materials, sizes)
     for i in sorted(textured):
         tex = materials[i].texture
