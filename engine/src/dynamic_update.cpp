@@ -227,7 +227,7 @@ void Solver::Impl::change_material(int index, const Material& m) {
     const Patch& patch = mesh.patches[p];
     emitted[p].fill(dvec3(0.0));
     if (patch.material != index) continue;
-    bool own_rho = !mesh.objects[patch.object].textured;
+    bool own_rho = scene.meshes[patch.object].corner_reflectance.empty();
     if (own_rho) std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
     // A hidden object emits nothing, and gathers nothing to reflect.
     if (patch.area == 0 || !scene.meshes[patch.object].visible) continue;

@@ -50,7 +50,6 @@ void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined
     if (mirrored) std::swap(rho[1], rho[3]);
     pm.reflectance.insert(pm.reflectance.end(), rho.begin(), rho.end());
   }
-  obj.textured = !refined.corner_reflectance.empty();
 }
 
 // Places an object's vertices and patches from its refinement and transform; returns the corner

@@ -42,7 +42,6 @@ struct ObjectPatches {
   int level = 0;          // bilinear levels it was refined with: a moved object keeps its patches
   int degenerate = 0;     // zero-area patches
   bool mirrored = false;  // transform flips handedness
-  bool textured = false;  // its reflectance is per corner (MeshDesc::corner_reflectance), not its materials'
   std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place
 };
 
