@@ -344,6 +344,8 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
     per_material = np.array([m.reflectance for m in materials], np.float64).reshape(-1, 3)
     rho = np.repeat(per_material[face_materials], sizes, axis=0)
     corner_material = np.repeat(face_materials, sizes)
+    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+    by_layer = {}   # UVs per map, read once: several textured materials may share one
     for i in sorted(textured):
         tex = materials[i].texture
         layer = me.uv_layers.get(tex.uv_map) if tex.uv_map else next(
@@ -352,15 +354,16 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
             warnings.append(f"{label}: no UV map{' ' + tex.uv_map if tex.uv_map else ''} for the texture of "
                             f"{materials[i].name}; its mean colour is used")
             continue
-        uv = np.empty(len(me.loops) * 2, np.float32)
-        layer.data.foreach_get("uv", uv)
-        uv = uv.reshape(-1, 2).astype(np.float64)
-        if loops is not None:
-            uv = uv[loops]
-        # A hair towards each face's middle, where Cycles reads a corner (texture.corner_colours).
-        starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-        middle = np.repeat(np.add.reduceat(uv, starts) / sizes[:, None], sizes, axis=0)
-        uv += INSIDE * (middle - uv)
+        if layer.name not in by_layer:
+            uv = np.empty(len(me.loops) * 2, np.float32)
+            layer.data.foreach_get("uv", uv)
+            uv = uv.reshape(-1, 2).astype(np.float64)
+            if loops is not None:
+                uv = uv[loops]
+            # A hair towards each face's middle, where Cycles reads a corner (texture.corner_colours).
+            middle = np.repeat(np.add.reduceat(uv, starts) / sizes[:, None], sizes, axis=0)
+            by_layer[layer.name] = uv + INSIDE * (middle - uv)
+        uv = by_layer[layer.name]
         at = corner_material == i
         rho[at] = colour_texture.corner_colours(tex, uv[at], images)
     return _below_one(rho, f"{label}'s texture colours", warnings)
