@@ -263,6 +263,11 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("object"), py::arg("positions"), "object-space positions, same vertices and faces as added")
       .def("set_visible", &Solver::set_visible, py::arg("object"), py::arg("visible"),
            "The object appears or vanishes at the next update() (incrementally)")
+      .def("add", &Solver::add, py::arg("scene"),
+           "Adds the scene's materials after the solver's (its meshes' material indices count them "
+           "so), its meshes as the next object ids and its lamps as the next lamp indices; they come "
+           "into the light at the next update(), incrementally (ValueError, changing nothing, on bad "
+           "input or a mesh reaching past the scene's size: that needs a new Solver)")
       .def("set_material",
            [](Solver& s, int index, std::array<double, 3> reflectance, std::array<double, 3> emission) {
              s.set_material(index, {vec3(reflectance), vec3(emission)});

@@ -140,19 +140,21 @@ struct Builder {
 
 ClusterTree ClusterTree::build(const PatchMesh& mesh) {
   ClusterTree tree;
-  tree.order.resize(mesh.patches.size());
-  for (size_t i = 0; i < tree.order.size(); ++i) tree.order[i] = int(i);
-  tree.nodes.resize(2 * mesh.patches.size());  // an object's k patches take 2k - 1
-  Builder builder{mesh, tree, 0};
-  for (const ObjectPatches& obj : mesh.objects) {
-    tree.object_root.push_back(-1);
-    if (obj.patch_end > obj.patch_begin) {
-      tree.object_root.back() = builder.build(obj.patch_begin, obj.patch_end);
-      tree.roots.push_back(tree.object_root.back());
-    }
-  }
-  tree.nodes.resize(builder.next);
+  for (size_t o = 0; o < mesh.objects.size(); ++o) tree.add_object(mesh);
   return tree;
+}
+
+void ClusterTree::add_object(const PatchMesh& mesh) {
+  const ObjectPatches& obj = mesh.objects.at(object_root.size());
+  order.resize(obj.patch_end);
+  for (int p = obj.patch_begin; p < obj.patch_end; ++p) order[p] = p;
+  object_root.push_back(-1);
+  if (obj.patch_end == obj.patch_begin) return;
+  int first = int(nodes.size());
+  nodes.resize(first + 2 * (obj.patch_end - obj.patch_begin) - 1);  // k patches take 2k - 1
+  Builder builder{mesh, *this, first};
+  object_root.back() = builder.build(obj.patch_begin, obj.patch_end);
+  roots.push_back(object_root.back());
 }
 
 void ClusterTree::rebuild(const PatchMesh& mesh, int object) {

@@ -39,6 +39,8 @@ struct ClusterTree {
   std::vector<int> object_root;  // per object, -1 if it has no patches
 
   static ClusterTree build(const PatchMesh& mesh);
+  // The hierarchy of the mesh's next object (patches past those it holds), after the others'.
+  void add_object(const PatchMesh& mesh);
   // The coarsest nodes no larger than `radius`: a partition of all patches into shooters.
   std::vector<int> cut(double radius) const;
   // After an object moved or deformed: its hierarchy built anew, in the same nodes (a full binary

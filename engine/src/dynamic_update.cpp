@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 
 namespace radiosity {
 
@@ -122,6 +123,51 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   else
     propagate(progress, Sampling::full);
   return done();
+}
+
+void Solver::Impl::add(const SceneDesc& more) {
+  SceneDesc next = scene;
+  next.materials.insert(next.materials.end(), more.materials.begin(), more.materials.end());
+  next.meshes.insert(next.meshes.end(), more.meshes.begin(), more.meshes.end());
+  next.lamps.insert(next.lamps.end(), more.lamps.begin(), more.lamps.end());
+  next.validate();
+  for (const MeshDesc& m : more.meshes)
+    for (const dvec3& p : m.positions)
+      if (!(glm::length(dvec3(m.transform * glm::dvec4(p, 1.0)) - mesh.origin) <= mesh.diagonal))
+        throw std::invalid_argument("object '" + m.name + "' reaches beyond the scene the solver was made " +
+                                    "for; it needs a new Solver");
+  scene.materials = std::move(next.materials);
+  // Lamps come dark, and light up as a lamp's change of strength.
+  for (const Lamp& l : more.lamps) {
+    pending.lamps[int(scene.lamps.size())] = l;
+    scene.lamps.push_back(l);
+    scene.lamps.back().color = dvec3(0.0);
+  }
+  // Meshes come hidden, and appear as a hidden object does: a move from nowhere.
+  int degenerate = mesh.degenerate_patches;
+  for (MeshDesc m : more.meshes) {
+    int object = int(scene.meshes.size());
+    m.dynamic = true;
+    if (m.visible) pending.meshes[object] = m;
+    m.visible = false;
+    scene.meshes.push_back(m);
+    add_object(mesh, m, scene.materials, settings);
+    tree.add_object(mesh);
+    vis->add_object(mesh);
+  }
+  for (auto* points : {&front, &back, &reflected_front, &reflected_back}) points->resize(mesh.points.size(), dvec3(0.0));
+  CornerUnshot none;
+  none.fill(dvec3(0.0));
+  unshot.resize(mesh.patches.size(), none);
+  shot.resize(mesh.patches.size(), none);
+  hidden_point.resize(mesh.points.size(), 1);
+  cut_shooters();
+  near_direct.reset();
+  stats.patches = int(mesh.patches.size());
+  stats.points = int(mesh.points.size());
+  if (mesh.degenerate_patches > degenerate)
+    stats.warnings.push_back(std::to_string(mesh.degenerate_patches - degenerate) +
+                             " degenerate (zero-area) patches of added objects were left out");
 }
 
 void Solver::Impl::restart() {

@@ -124,48 +124,57 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
   }
 }
 
-// Groups the corners at each vertex into receiving points by normal (the first corner of a group
-// sets its normal), then places them.
-void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals) {
+// Groups the corners of an object's patches (slots from `first_slot` on) at each vertex into
+// receiving points by normal (the first corner of a group sets its normal), appends them, then
+// places them. `corner_normals` holds the object's corners' normals.
+void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals, int first_slot, ObjectPatches& obj) {
   int slots = int(pm.patches.size()) * 4;
-  std::vector<int> by_vertex(slots);
-  for (int s = 0; s < slots; ++s) by_vertex[s] = s;
-  std::stable_sort(by_vertex.begin(), by_vertex.end(), [&](int a, int b) {
-    return pm.patches[a / 4].vertex[a % 4] < pm.patches[b / 4].vertex[b % 4];
-  });
-  std::vector<int> slot_point(slots, -1);
+  int count = slots - first_slot;
+  auto vertex_of = [&](int s) { return pm.patches[s / 4].vertex[s % 4]; };
+  std::vector<int> by_vertex(count);
+  for (int k = 0; k < count; ++k) by_vertex[k] = first_slot + k;
+  std::stable_sort(by_vertex.begin(), by_vertex.end(), [&](int a, int b) { return vertex_of(a) < vertex_of(b); });
+  int first_point = int(pm.points.size());
+  std::vector<int> slot_point(count, -1);
   std::vector<dvec3> point_normal;
-  for (int i = 0; i < slots;) {
-    int vertex = pm.patches[by_vertex[i] / 4].vertex[by_vertex[i] % 4];
-    int first_point = int(point_normal.size());
+  for (int i = 0; i < count;) {
+    int vertex = vertex_of(by_vertex[i]);
+    int vertex_first = int(point_normal.size());
     int j = i;
-    for (; j < slots && pm.patches[by_vertex[j] / 4].vertex[by_vertex[j] % 4] == vertex; ++j) {
-      int s = by_vertex[j];
+    for (; j < count && vertex_of(by_vertex[j]) == vertex; ++j) {
+      int s = by_vertex[j] - first_slot;
       const dvec3& n = corner_normals[s];
       int chosen = -1;
-      for (int p = first_point; p < int(point_normal.size()) && chosen < 0; ++p)
+      for (int p = vertex_first; p < int(point_normal.size()) && chosen < 0; ++p)
         if (glm::length(n) == 0 || glm::dot(point_normal[p], n) > kSameNormal) chosen = p;
       if (chosen < 0) {
         chosen = int(point_normal.size());
         point_normal.push_back(n);
       }
-      slot_point[s] = chosen;
+      slot_point[s] = first_point + chosen;
     }
     i = j;
   }
-  pm.points.resize(point_normal.size());
-  pm.point_slot_begin.assign(pm.points.size() + 1, 0);
-  for (int s = 0; s < slots; ++s) {
-    pm.patches[s / 4].point[s % 4] = slot_point[s];
-    ++pm.point_slot_begin[slot_point[s] + 1];
+  int points = first_point + int(point_normal.size());
+  pm.points.resize(points);
+  // CSR: the object's points count their slots, then their starts follow on from the last point's.
+  pm.point_slot_begin.resize(points + 1, 0);
+  std::fill(pm.point_slot_begin.begin() + first_point + 1, pm.point_slot_begin.end(), 0);
+  for (int k = 0; k < count; ++k) {
+    int s = first_slot + k;
+    pm.patches[s / 4].point[s % 4] = slot_point[k];
+    ++pm.point_slot_begin[slot_point[k] + 1];
   }
-  for (size_t p = 0; p < pm.points.size(); ++p) pm.point_slot_begin[p + 1] += pm.point_slot_begin[p];
+  for (int p = first_point; p < points; ++p) pm.point_slot_begin[p + 1] += pm.point_slot_begin[p];
   pm.point_slots.resize(slots);
   pm.own_view.resize(slots);
   pm.onward.resize(slots);
-  std::vector<int> fill(pm.point_slot_begin.begin(), pm.point_slot_begin.end() - 1);
-  for (int s = 0; s < slots; ++s) pm.point_slots[fill[slot_point[s]]++] = s;
-  place_points(pm, corner_normals.data(), 0, 0, int(pm.points.size()));
+  std::vector<int> fill(pm.point_slot_begin.begin() + first_point, pm.point_slot_begin.end() - 1);
+  for (int k = 0; k < count; ++k) pm.point_slots[fill[slot_point[k] - first_point]++] = first_slot + k;
+  place_points(pm, corner_normals.data(), first_slot, first_point, points);
+  // Points are made vertex by vertex, and an object's vertices are its own, so its points are a range.
+  obj.point_begin = point_normal.empty() ? 0 : first_point;
+  obj.point_end = point_normal.empty() ? 0 : points;
 }
 
 // For each input face corner, the patch corner at the same place.
@@ -210,37 +219,25 @@ PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
     double d = glm::length(hi - lo);
     pm.diagonal = d > 0 ? d : 1.0;
   }
-  std::vector<dvec3> corner_normals;
-  for (size_t i = 0; i < scene.meshes.size(); ++i) {
-    const MeshDesc& mesh = scene.meshes[i];
-    double patch_size = mesh.patch_size > 0 ? mesh.patch_size
-                                            : settings.patch_size_relative * pm.diagonal;
-    ObjectPatches obj;
-    obj.level = bilinear_level(mesh, patch_size);
-    RefinedMesh refined = refine_mesh(mesh, obj.level);
-    obj.patch_begin = int(pm.patches.size());
-    obj.vertex_begin = int(pm.vertices.size());
-    add_patches(pm, mesh, refined, scene.materials, int(i), obj);
-    obj.patch_end = int(pm.patches.size());
-    obj.vertex_end = int(pm.vertices.size());
-    std::vector<dvec3> normals = set_geometry(pm, mesh, refined, obj);
-    corner_normals.insert(corner_normals.end(), normals.begin(), normals.end());
-    obj.corner_slot = corner_slots(mesh, refined, obj);
-    pm.objects.push_back(std::move(obj));
-  }
-  make_points(pm, corner_normals);
-  // Points are made vertex by vertex and vertices object by object, so each object's points are a range.
-  for (ObjectPatches& obj : pm.objects) {
-    obj.point_begin = int(pm.points.size());
-    obj.point_end = 0;
-    for (int p = obj.patch_begin; p < obj.patch_end; ++p)
-      for (int c = 0; c < 4; ++c) {
-        obj.point_begin = std::min(obj.point_begin, pm.patches[p].point[c]);
-        obj.point_end = std::max(obj.point_end, pm.patches[p].point[c] + 1);
-      }
-    if (obj.point_end == 0) obj.point_begin = 0;
-  }
+  for (const MeshDesc& mesh : scene.meshes) add_object(pm, mesh, scene.materials, settings);
   return pm;
+}
+
+void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
+                const Settings& settings) {
+  double patch_size = mesh.patch_size > 0 ? mesh.patch_size : settings.patch_size_relative * pm.diagonal;
+  ObjectPatches obj;
+  obj.level = bilinear_level(mesh, patch_size);
+  RefinedMesh refined = refine_mesh(mesh, obj.level);
+  obj.patch_begin = int(pm.patches.size());
+  obj.vertex_begin = int(pm.vertices.size());
+  add_patches(pm, mesh, refined, materials, int(pm.objects.size()), obj);
+  obj.patch_end = int(pm.patches.size());
+  obj.vertex_end = int(pm.vertices.size());
+  std::vector<dvec3> normals = set_geometry(pm, mesh, refined, obj);
+  obj.corner_slot = corner_slots(mesh, refined, obj);
+  make_points(pm, normals, 4 * obj.patch_begin, obj);
+  pm.objects.push_back(std::move(obj));
 }
 
 }  // namespace radiosity

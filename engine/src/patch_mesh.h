@@ -64,6 +64,9 @@ struct PatchMesh {
 };
 
 PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings);
+// Appends one more object (the next index), in the frame and at the sizes `pm` was built with.
+void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
+                const Settings& settings);
 
 // Moving or deforming one object in place, in two steps so a bad change is refused before anything
 // changes: `mesh` (new transform or positions) must refine to the same patches as before, else

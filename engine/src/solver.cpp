@@ -334,6 +334,8 @@ void Solver::set_visible(int object, bool visible) {
   it->second.visible = visible;
 }
 
+void Solver::add(const SceneDesc& more) { impl_->add(more); }
+
 void Solver::set_material(int index, const Material& material) {
   impl_->scene.materials.at(index);
   impl_->pending.materials[index] = material;

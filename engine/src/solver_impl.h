@@ -129,6 +129,7 @@ struct Solver::Impl {
 
   // dynamic_update.cpp
   const SolveStats& update(const ProgressCallback& progress);
+  void add(const SceneDesc& more);  // Solver::add
   void restart();  // forgets all light gathered and shot: the next solve() starts from the lamps
   void gather_direct_change(const std::vector<Source>& sources);  // everywhere, then applied
   void change_world(const dvec3& world);

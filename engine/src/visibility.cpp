@@ -41,22 +41,29 @@ Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_o
   if (!device_) throw std::runtime_error("Embree device could not be created");
   top_ = rtcNewScene(device_);
   rtcSetSceneFlags(top_, RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);  // occluded_without
-  objects_.resize(mesh.objects.size());
-  for (size_t o = 0; o < mesh.objects.size(); ++o) {
-    const ObjectPatches& obj = mesh.objects[o];
-    if (obj.patch_end == obj.patch_begin) continue;
-    RTCGeometry quads = make_quads(device_, mesh, obj);
-    bool shown = o >= visible.size() || visible[o];
-    if ((o < dynamic_objects.size() && dynamic_objects[o]) || !shown)
-      make_instance(objects_[o], quads);
-    else
-      objects_[o].geometry = rtcAttachGeometry(top_, quads);
-    rtcReleaseGeometry(quads);
-    if (!shown) {
-      objects_[o].visible[0] = objects_[o].visible[1] = false;
-      rtcDisableGeometry(objects_[o].instance);
-    }
+  for (size_t o = 0; o < mesh.objects.size(); ++o)
+    attach(mesh, o < dynamic_objects.size() && dynamic_objects[o], o >= visible.size() || visible[o]);
+  rtcCommitScene(top_);
+}
+
+void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
+  Object& o = objects_.emplace_back();
+  const ObjectPatches& obj = mesh.objects.at(objects_.size() - 1);
+  if (obj.patch_end == obj.patch_begin) return;
+  RTCGeometry quads = make_quads(device_, mesh, obj);
+  if (dynamic || !shown)
+    make_instance(o, quads);
+  else
+    o.geometry = rtcAttachGeometry(top_, quads);
+  rtcReleaseGeometry(quads);
+  if (!shown) {
+    o.visible[0] = o.visible[1] = false;
+    rtcDisableGeometry(o.instance);
   }
+}
+
+void Visibility::add_object(const PatchMesh& mesh) {
+  attach(mesh, true, false);
   rtcCommitScene(top_);
 }
 

@@ -60,6 +60,8 @@ class Visibility {
   // replace the old ones, which are kept until the next move so an update can ask what the old one
   // blocked. A static object becomes an instance on its first move (one rebuild of the top level).
   void move_object(int object, const PatchMesh& mesh, bool visible);
+  // The mesh's next object, hidden (as an instance, to appear with move_object).
+  void add_object(const PatchMesh& mesh);
   // Rays against one moved object alone, as it is now or as it was before its last move (a hidden
   // object blocks nothing).
   void occluded_by(int object, bool before_move, RTCRay* rays, unsigned count) const;
@@ -87,6 +89,7 @@ class Visibility {
     bool visible[2] = {true, true};
     int now = 0;
   };
+  void attach(const PatchMesh& mesh, bool dynamic, bool shown);  // the mesh's next object
   RTCScene new_object_scene();
   void make_instance(Object& o, RTCGeometry quads);
 

@@ -55,10 +55,17 @@ class Solver {
   // Scene changes, applied by the next update(). Indices are the SceneDesc's. An object keeps its
   // patches: a new transform or new positions must refine to the same topology (else
   // std::invalid_argument from update()). An object appears or vanishes with set_visible (one that
-  // was not in the SceneDesc needs a new Solver); a hidden one may move, and appears where it is.
+  // was not in the SceneDesc comes with add()); a hidden one may move, and appears where it is.
   void set_transform(int object, const dmat4& transform);
   void set_positions(int object, std::vector<dvec3> positions);
   void set_visible(int object, bool visible);
+  // Adds what `more` holds: its materials after the solver's (its meshes' face_materials index the
+  // list so extended), its meshes as the next objects and its lamps as the next lamps (its world is
+  // not used). They come into the light at the next update(), as hidden objects that appear and
+  // lamps that light up do: incrementally. Refused whole (std::invalid_argument) on bad input, or a
+  // mesh reaching farther from the scene's centre than the scene is across: ray offsets and patch
+  // sizes scale with the scene the Solver was made for, and it needs a new Solver.
+  void add(const SceneDesc& more);
   void set_material(int index, const Material& material);
   void set_lamp(int index, const Lamp& lamp);  // same type as before
   void set_world(const dvec3& radiance);
