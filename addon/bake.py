@@ -129,84 +129,81 @@ def _lamp_call(index, l):
     return "set_area_light", (index, l.position, l.u_half_axis, l.v_half_axis, l.radiance, l.shape)
 
 
-# For the messages that report a rebuild (align_export decides what needs one).
-REBUILD_NOTE = ("the engine updates moves, deformations, objects hidden, shown or deleted, materials, lamps "
-                "and the world incrementally, but not new objects, lamps or materials, nor changes of "
-                "topology, material assignment, smooth / flat shading, texture colours or lamp type")
+# For the messages that report a rebuild.
+REBUILD_NOTE = ("the engine takes every change of the scene incrementally, objects, lamps and materials "
+                "added included, but for new quality settings or an object added beyond the scene's size")
+
+# Appended (with its index) to the name of a mesh or lamp the Solver keeps but the scene no longer
+# has as it was (align_export): no Blender name holds a NUL.
+RETIRED = "\0retired"
 
 
-def _names(items):
-    return ", ".join(items[:3]) + (" ..." if len(items) > 3 else "")
+def _same_layout(a, b):
+    """Whether the engine can take mesh `b` in place of `a`: the same patches, shading and colours."""
+    return (a.refine == b.refine and a.level == b.level and a.positions.shape == b.positions.shape
+            and np.array_equal(a.face_sizes, b.face_sizes) and np.array_equal(a.face_vertices, b.face_vertices)
+            and np.array_equal(a.face_materials, b.face_materials)
+            and _same(a.smooth, b.smooth) and _same(a.corner_reflectance, b.corner_reflectance))
 
 
 def align_export(old, new):
-    """`new` laid out as the Solver that holds `old` holds it: (SceneExport, None), or (None, reason)
-    when the engine cannot take it and the Solver must be rebuilt.
+    """`new` laid out as the Solver that holds `old` will hold it: old's meshes, lamps and materials
+    first, by index in old's order, then what `new` adds (diff_exports sends those with Solver.add).
 
-    A Solver keeps every mesh and lamp it was built with, meshes by id, lamps and materials by index:
-    the result lists them in old's order. A mesh or lamp hidden from render, or missing from `new`
-    (deleted, its collection excluded), is old's, hidden (lamps dark): the engine keeps what it had,
-    only its visibility changes, and it can come back later (undo of a delete). A visible mesh is
-    new's, its material indices mapped to old's list. Rebuild: a mesh, lamp or material the Solver never
-    had, a visible mesh whose topology or material assignment is not the Solver's, a lamp's type or
-    area shape."""
-    new_meshes = {m.name: m for m in new.meshes}
-    new_lights = {l.name: l for l in new.lights}
-    added = sorted((new_meshes.keys() - {m.name for m in old.meshes})
-                   | (new_lights.keys() - {l.name for l in old.lights}))
-    if added:
-        return None, f"objects added ({_names([f'+{n}' for n in added])})"
-    mat_index = {m.name: i for i, m in enumerate(old.materials)}
-    added = [m.name for m in new.materials if m.name not in mat_index]
-    if added:
-        return None, f"new materials ({_names(added)})"
+    A mesh or lamp hidden from render, or missing from `new` (deleted, its collection excluded), is
+    old's, hidden (lamps dark): the engine keeps what it had, only its visibility changes, and it can
+    come back later (undo of a delete). A visible mesh is new's, its material indices mapped to the
+    result's list. A mesh the engine cannot change in place (its topology, material assignment,
+    smooth / flat shading or texture colours changed) or a lamp of another type or area shape keeps
+    old's entry, renamed RETIRED and hidden or dark, and comes again after, as new's."""
     materials = list(old.materials)    # a material no object of `new` uses keeps old's values
+    mat_index = {m.name: i for i, m in enumerate(materials)}
     for m in new.materials:
+        if m.name not in mat_index:
+            mat_index[m.name] = len(materials)
+            materials.append(m)
         materials[mat_index[m.name]] = m
-    to_old = np.array([mat_index[m.name] for m in new.materials] or [0], np.int32)
-    meshes = []
-    for a in old.meshes:
-        b = new_meshes.get(a.name)
+    to_state = np.array([mat_index[m.name] for m in new.materials] or [0], np.int32)
+    fresh = {m.name: replace(m, face_materials=to_state[m.face_materials]) for m in new.meshes}
+    meshes, added = [], []
+    for i, a in enumerate(old.meshes):
+        b = fresh.pop(a.name, None)
         if b is None or not b.visible:
             meshes.append(replace(a, visible=False))
-            continue
-        if (a.refine != b.refine or a.level != b.level or a.positions.shape != b.positions.shape
-                or not np.array_equal(a.face_sizes, b.face_sizes)
-                or not np.array_equal(a.face_vertices, b.face_vertices)):
-            return None, f"'{b.name}' changed topology"
-        if not _same(a.smooth, b.smooth):
-            return None, f"'{b.name}' changed its shading (smooth / flat)"
-        if not _same(a.corner_reflectance, b.corner_reflectance):
-            return None, f"'{b.name}' changed its texture colours"
-        b = replace(b, face_materials=to_old[b.face_materials])
-        if not np.array_equal(a.face_materials, b.face_materials):
-            return None, f"'{b.name}' changed its material assignment"
-        meshes.append(b)
-    lights = []
-    for a in old.lights:
-        b = new_lights.get(a.name)
+        elif _same_layout(a, b):
+            meshes.append(b)
+        else:
+            meshes.append(replace(a, name=f"{a.name}{RETIRED}{i}", visible=False))
+            added.append(b)
+    fresh_lights = {l.name: l if l.visible else exporter.dark(l) for l in new.lights}
+    lights, added_lights = [], []
+    for i, a in enumerate(old.lights):
+        b = fresh_lights.pop(a.name, None)
         if b is None or not b.visible:
             lights.append(exporter.dark(a))
         elif (a.kind, a.shape) != (b.kind, b.shape):
-            return None, f"lamp '{b.name}' changed type or shape"
+            lights.append(exporter.dark(replace(a, name=f"{a.name}{RETIRED}{i}")))
+            added_lights.append(b)
         else:
             lights.append(b)
-    return replace(new, meshes=meshes, materials=materials, lights=lights), None
+    return replace(new, meshes=meshes + added + list(fresh.values()), materials=materials,
+                   lights=lights + added_lights + list(fresh_lights.values()))
 
 
-def diff_exports(old, new, ids):
-    """The engine calls [(Solver method name, args)] that turn the scene `old` (a SceneExport already in
-    a Solver whose mesh ids are `ids`) into `new`, laid out alike (align_export).
+def diff_exports(old, new, engine):
+    """The engine calls [(Solver method name, args)] that turn the scene `old` (a SceneExport as a
+    Solver holds it, mesh i its object i) into `new`, laid out alike (align_export): set_* for what
+    both hold, one `add` (an engine Scene from the `engine` module) for what `new` holds past old.
 
     Everything is compared with numpy (whole arrays, no per-vertex loops); equal data sends nothing."""
     calls = []
-    for a, b in zip(old.meshes, new.meshes):
+    for i, (a, b) in enumerate(zip(old.meshes, new.meshes)):
         if a.visible != b.visible:
-            calls.append(("set_visible", (ids[b.name], b.visible)))
+            calls.append(("set_visible", (i, b.visible)))
         if not np.array_equal(a.transform, b.transform):
-            calls.append(("set_transform", (ids[b.name], b.transform)))
+            calls.append(("set_transform", (i, b.transform)))
         if not np.array_equal(a.positions, b.positions):
-            calls.append(("set_positions", (ids[b.name], b.positions)))
+            calls.append(("set_positions", (i, b.positions)))
     for i, (a, b) in enumerate(zip(old.materials, new.materials)):
         if not (_same(a.reflectance, b.reflectance) and _same(a.emission, b.emission)):
             calls.append(("set_material", (i, b.reflectance, b.emission)))
@@ -217,6 +214,9 @@ def diff_exports(old, new, ids):
             calls.append(cb)
     if not _same(old.world, new.world):
         calls.append(("set_world", (np.asarray(new.world, np.float64),)))
+    if (len(new.meshes), len(new.materials), len(new.lights)) != (len(old.meshes), len(old.materials),
+                                                                   len(old.lights)):
+        calls.append(("add", (exporter.to_engine(new, engine, after=old)[0],)))
     return calls
 
 
@@ -231,9 +231,10 @@ class BakeJob:
     With `base` (an earlier, succeeded BakeJob of the same scene and settings) the job is incremental:
     it reuses base's engine Solver and sends only what changed since base's export (diff_exports),
     then calls Solver.update(); its `export` is then the scene as that Solver holds it (align_export:
-    deleted objects stay in it, hidden). When the engine cannot take the change (new objects,
-    topology, lamp type...) it builds a new Solver and solves the whole scene (`rebuild_reason` says
-    why). `base` must not be used afterwards: its Solver now holds this job's scene."""
+    deleted objects stay in it, hidden, and what was added comes after). When the engine refuses the
+    change (an object added beyond the scene's size) it builds a new Solver and solves the whole scene
+    (`rebuild_reason` says why). `base` must not be used afterwards: its Solver now holds this job's
+    scene."""
 
     def __init__(self, scene, depsgraph, props=None, preset=None, engine=None, base=None):
         self.engine = engine or load_engine()
@@ -254,7 +255,7 @@ class BakeJob:
         if edit:
             raise BakeError(f"object '{edit[0]}' is in Edit Mode: switch to Object Mode before baking")
         sx = exporter.export_scene(depsgraph)
-        self.export = sx
+        self.export = self.exported = sx
         if not sx.visible_meshes:
             raise BakeError("nothing to bake: the scene has no visible mesh objects")
         self.warnings += sx.warnings
@@ -270,14 +271,12 @@ class BakeJob:
             elif settings_key(base.settings) != settings_key(self.settings):
                 self.rebuild_reason = "the quality settings changed"
             else:
-                state, self.rebuild_reason = align_export(base.export, sx)
-                if state is not None:
-                    self.calls = diff_exports(base.export, state, base.ids)
-                    self.export = state     # as the Solver will hold it: the next job's diff starts here
+                self.export = align_export(base.export, sx)   # as the Solver will hold it
+                self.calls = diff_exports(base.export, self.export, self.engine)
         if self.calls is not None:
             self.base = base
             self.solver = base.solver
-            self.ids = base.ids
+            self.ids = {m.name: i for i, m in enumerate(self.export.meshes)}
         else:
             self._build_scene()
         self.effects = effects_of(sx)
@@ -339,6 +338,7 @@ class BakeJob:
             self.rebuild_reason = f"the engine refused the change ({e})"
             self.calls = None
             self.base = None
+            self.export = self.exported  # without what only base's Solver kept (hidden, retired)
             return self._full()
         st["shots_before"] = base.get("shots", 0)
         st["rays_before"] = base.get("rays", 0)

@@ -527,21 +527,24 @@ def export_scene(depsgraph=None, use_render_levels=True):
 
 
 # ----------------------------------------------------------------------------- engine feed
-def to_engine(sx, engine, patch_size=0.0, dynamic=None):
+def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
     """Build an engine Scene from a SceneExport. `engine` is the radiosity_engine module (passed in,
     so this file imports without it). `dynamic`: None = animated objects, or a set of mesh names.
+    `after`: a SceneExport that `sx` extends (bake.align_export): only the materials, meshes and
+    lamps past after's, as Solver.add takes them (material indices count after's materials).
     Returns (scene, {mesh name: engine object id})."""
+    first = (len(after.materials), len(after.meshes), len(after.lights)) if after else (0, 0, 0)
     s = engine.Scene()
-    mids = np.array([s.add_material(reflectance=m.reflectance, emission=m.emission) for m in sx.materials]
-                    or [0], np.int32)
+    for m in sx.materials[first[0]:]:
+        s.add_material(reflectance=m.reflectance, emission=m.emission)
     ids = {}
-    for m in sx.meshes:
+    for m in sx.meshes[first[1]:]:
         dyn = m.animated if dynamic is None else (m.name in dynamic)
-        ids[m.name] = s.add_mesh(m.positions, m.face_sizes, m.face_vertices, mids[m.face_materials],
-                                 m.transform, refine=m.refine, level=m.level, patch_size=patch_size,
-                                 dynamic=bool(dyn), name=m.name, visible=m.visible, smooth=m.smooth,
-                                 corner_reflectance=m.corner_reflectance)
-    for l in sx.lights:
+        ids[m.name] = first[1] + s.add_mesh(
+            m.positions, m.face_sizes, m.face_vertices, np.asarray(m.face_materials, np.int32), m.transform,
+            refine=m.refine, level=m.level, patch_size=patch_size, dynamic=bool(dyn), name=m.name,
+            visible=m.visible, smooth=m.smooth, corner_reflectance=m.corner_reflectance)
+    for l in sx.lights[first[2]:]:
         if l.kind == "point":
             s.add_point_light(l.position, l.intensity, l.radius)
         elif l.kind == "spot":

@@ -8,9 +8,10 @@
   (`live_jobs`, started by a bake or by the first change). On a frame change (frame_change_post) or
   an edit (depsgraph_update_post) the evaluated scene is exported and compared with what the Solver
   last got (bake.diff_exports: transforms, deformed positions, objects hidden, shown or deleted,
-  materials, lamps, world); only the differences are sent (Solver.set_*), Solver.update() shoots
-  them, and the colours are written (not to hidden objects: they keep theirs). New objects, lamps or
-  materials and changes of topology need a new Solver and a full solve (bake.align_export, printed).
+  materials, lamps, world, and with Solver.add new objects, lamps and materials and objects whose
+  topology changed); only the differences are sent, Solver.update() shoots them, and the colours
+  are written (not to hidden objects: they keep theirs). New quality settings, or an object added
+  beyond the scene's size, need a new Solver and a full solve (printed).
 
 Never while a render runs: a render job (is_job_running('RENDER' / 'OBJECT_BAKE')) or a render
 depsgraph gets no live solves. Cached frames are written only by the render pipeline's own frame

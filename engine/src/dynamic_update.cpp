@@ -139,7 +139,7 @@ void Solver::Impl::add(const SceneDesc& more) {
   scene.materials = std::move(next.materials);
   // Lamps come dark, and light up as a lamp's change of strength.
   for (const Lamp& l : more.lamps) {
-    pending.lamps[int(scene.lamps.size())] = l;
+    if (channel_sum(l.color) > 0) pending.lamps[int(scene.lamps.size())] = l;
     scene.lamps.push_back(l);
     scene.lamps.back().color = dvec3(0.0);
   }

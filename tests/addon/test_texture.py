@@ -60,7 +60,7 @@ def test_texture_colours_reach_the_corners_as_cycles_bakes_them(addon, interpola
     assert err < 0.003
 
 
-def test_a_textured_bake_reports_the_texture_and_a_texture_change_rebuilds(addon):
+def test_a_textured_bake_reports_the_texture_and_a_texture_change_re_adds_the_object(addon):
     ob = textured_grid("Linear", "sRGB", 1.0)
     scene = bpy.context.scene
     scene.radiosity.preset = 'DRAFT'
@@ -70,8 +70,11 @@ def test_a_textured_bake_reports_the_texture_and_a_texture_change_rebuilds(addon
     image = bpy.data.images["Texels"]
     image.pixels.foreach_set(np.full(4 * 4 * 4, 0.5, np.float32))
     after = addon.export.export_scene()
-    state, reason = addon.bake.align_export(before, after)
-    assert state is None and "texture" in reason
+    state = addon.bake.align_export(before, after)
+    retired = state.meshes[[m.name for m in before.meshes].index(ob.name)]
+    assert not retired.visible and addon.bake.RETIRED in retired.name   # re-added with the new colours
+    assert state.meshes[-1].name == ob.name and not np.array_equal(
+        state.meshes[-1].corner_reflectance, before.mesh(ob.name).corner_reflectance)
 
 
 def test_white_is_taken_just_below_one_and_said_so(addon):
