@@ -228,7 +228,9 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, d
 }
 
 void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling) {
-  auto last_report = std::chrono::steady_clock::now();
+  // Reported before the first shot too: a caller that budgets the shooting (live update during
+  // playback) starts its clock there and may stop before any shot.
+  auto last_report = std::chrono::steady_clock::time_point();
   long first_shot = stats.shots;
   std::vector<double> power = shooter_power();  // then kept up to date by each shot
   double limit = 0.0;  // the residual past which this cannot be converging

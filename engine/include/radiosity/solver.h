@@ -36,7 +36,8 @@ struct PowerBalance {
   double injected = 0.0, unshot = 0.0, absorbed = 0.0;
 };
 
-// Called between shots with (progress in [0, 1], residual); returning false cancels the solve.
+// Called before the first shot and between shots (50 ms apart or more) with (progress in [0, 1],
+// residual); returning false cancels the solve.
 using ProgressCallback = std::function<bool(double, double)>;
 
 class Solver {
