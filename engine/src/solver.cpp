@@ -369,15 +369,17 @@ PowerBalance Solver::power_balance() const {
   return b;
 }
 
-std::vector<float> Solver::corner_radiance(int object) const {
+std::vector<float> Solver::corner_radiance(int object, bool exact_near_direct) const {
   const ObjectPatches& obj = impl_->mesh.objects.at(object);
-  std::vector<int> points;
-  for (int slot : obj.corner_slot)
-    if (slot >= 0) points.push_back(impl_->mesh.patches[slot / 4].point[slot % 4]);
-  impl_->prepare_near_direct(points);
+  if (exact_near_direct) {
+    std::vector<int> points;
+    for (int slot : obj.corner_slot)
+      if (slot >= 0) points.push_back(impl_->mesh.patches[slot / 4].point[slot % 4]);
+    impl_->prepare_near_direct(points);
+  }
   std::vector<float> out(3 * obj.corner_slot.size());
   for (size_t i = 0; i < obj.corner_slot.size(); ++i) {
-    dvec3 b = glm::max(impl_->corner_value(obj.corner_slot[i], true), dvec3(0.0));  // round-off negatives
+    dvec3 b = glm::max(impl_->corner_value(obj.corner_slot[i], exact_near_direct), dvec3(0.0));  // round-off negatives
     for (int k = 0; k < 3; ++k) out[3 * i + k] = float(b[k]);
   }
   return out;
