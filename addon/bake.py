@@ -394,17 +394,18 @@ class BakeJob:
     def succeeded(self):
         return self.done and self.error is None and not self.cancel_requested and self.stats is not None
 
-    def colours(self):
+    def colours(self, exact_near_direct=True):
         """{object name: (loops, 4) float32 RGBA in the original mesh's loop order} for every
         visible, non-instanced mesh whose corners match its original mesh (a hidden object keeps the
-        colours it has)."""
+        colours it has). exact_near_direct=False: the near direct light interpolated, whatever the
+        settings (Solver.corner_radiance)."""
         out = {}
         for m in self.export.visible_meshes:
             if not m.matches_original or m.name != m.object_name:
                 if m.name == m.object_name:
                     self.warnings.append(f"{m.name}: modifiers change its topology; not written")
                 continue
-            rad = np.asarray(self.solver.corner_radiance(self.ids[m.name]), np.float32)
+            rad = np.asarray(self.solver.corner_radiance(self.ids[m.name], exact_near_direct), np.float32)
             n = len(rad) if m.loop_indices is None else int(m.loop_indices.max()) + 1
             rgba = np.ones((n, 4), np.float32)
             if m.loop_indices is None:
