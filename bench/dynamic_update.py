@@ -26,8 +26,9 @@ Playback: the frame range played as the UI plays it (live_update.playing() force
 of shooting, colours written on the first frame after each ends. "main ms" is a frame_set's wall
 time (what the viewport waits for), "frames/update" how many frames an update spans, "residual" the
 median residual its colours were written at; "rms playing" compares the colours shown on the last
-frame with a fresh solve of it, "rms settled" the colours after playback stopped (live_update._watch)
-and the rest was shot to the threshold, which took "settle s".
+frame with a fresh solve of it (they are some frames behind), "own frame" with a fresh solve of the
+frame they were solved for (the residual's share), "rms settled" the colours after playback stopped
+(live_update._watch) and the rest was shot to the threshold, which took "settle s".
 """
 import os
 import statistics
@@ -140,6 +141,19 @@ def shown(scene, names):
     return np.concatenate([pkg.writeback.read_mesh(bpy.data.objects[n].data)[:, :3] for n in names])
 
 
+def fresh_solve(scene, frame):
+    """(object names, stacked RGB) of a new Solver's solve of `frame`; the live Solver is untouched."""
+    current = scene.frame_current
+    with live.suspended():
+        scene.frame_set(frame)
+        job = pkg.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
+        job.solve()
+        scene.frame_set(current)
+    colours = job.colours()
+    names = sorted(colours)
+    return names, np.concatenate([colours[n][:, :3] for n in names])
+
+
 def play_back(scene):
     """One playback of the frame range from a converged first frame (see the module's notes)."""
     live.playing = lambda: False
@@ -163,12 +177,10 @@ def play_back(scene):
         if info is not before and info.get("budgeted"):
             written.append(info)
     seconds = time.perf_counter() - start
-    fresh = pkg.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
-    fresh.solve()
-    colours = fresh.colours()
-    names = sorted(colours)
-    reference = np.concatenate([colours[n][:, :3] for n in names])
+    names, reference = fresh_solve(scene, scene.frame_current)
     playing = relative_rms(shown(scene, names), reference)
+    # the same colours against their own frame's light: what the residual costs, without the lag
+    own = relative_rms(shown(scene, names), fresh_solve(scene, written[-1]["frame"])[1])
     live.playing = lambda: False
     t = time.perf_counter()
     live._watch()
@@ -176,7 +188,7 @@ def play_back(scene):
     assert live.last_sync[scene.name]["converged"]
     return dict(fps=len(main) / seconds, main=med(main), main_max=max(main), updates=len(written),
                 span=len(main) / max(1, len(written)), residual=med([i["residual"] for i in written]),
-                playing=playing, settled=relative_rms(shown(scene, names), reference), settle=settle)
+                playing=playing, own=own, settled=relative_rms(shown(scene, names), reference), settle=settle)
 
 
 def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
@@ -274,14 +286,14 @@ def main():
     print()
     print(f"playback ({PLAYBACKS} runs of the frame range, medians)")
     head = (f"{'scene':14} {'fps':>5} {'of':>4} {'main ms':>8} {'max ms':>7} {'updates':>7} {'frames/upd':>10} "
-            f"{'residual':>8} {'rms playing':>11} {'rms settled':>11} {'settle s':>8}")
+            f"{'residual':>8} {'rms playing':>11} {'own frame':>9} {'rms settled':>11} {'settle s':>8}")
     print(head)
     print("-" * len(head))
     for r in rows:
         p = r["playback"]
         print(f"{r['scene']:14} {p['fps']:5.1f} {r['fps']:4.0f} {1000 * p['main']:8.1f} {1000 * p['main_max']:7.1f} "
               f"{p['updates']:7.0f} {p['span']:10.1f} {100 * p['residual']:7.2f}% {100 * p['playing']:10.3f}% "
-              f"{100 * p['settled']:10.3f}% {p['settle']:8.3f}")
+              f"{100 * p['own']:8.3f}% {100 * p['settled']:10.3f}% {p['settle']:8.3f}")
     print()
     print("full s: new Solver + solve() of a played frame; update s: Solver.update() of a frame change;")
     print("ratio = full / update (goal 50); touched: receiving points the update recomputed (engine's")
