@@ -6,6 +6,8 @@
 
     later = BakeJob(scene, depsgraph, settings, base=job)  # incremental: the same engine Solver,
     later.solve(progress)                                   # only what changed since `job` is sent
+                                                            # (budget=0.04: 40 ms of shooting; the
+                                                            # next job shoots on from there)
 
 Nothing here writes to Blender data; see writeback.py.
 """
@@ -248,6 +250,9 @@ class BakeJob:
         self.done = False
         self.rays = 0
         self.shots = 0
+        self.budget = None           # seconds of shooting (solve()); None: to the threshold
+        self.out_of_budget = False   # the budget stopped the shooting: the residual is above the threshold
+        self._shoot_until = None
         self.calls = None            # incremental: the Solver calls to send
         self.rebuild_reason = None   # incremental asked for, full solve needed: why
         self.scene = None
@@ -298,8 +303,8 @@ class BakeJob:
 
     @property
     def unchanged(self):
-        """Incremental and nothing differs from base: solve() sends nothing."""
-        return self.calls is not None and not self.calls
+        """Incremental, nothing differs from base and base shot to the threshold: solve() does nothing."""
+        return self.calls is not None and not self.calls and not self.base.out_of_budget
 
     # -- any thread
     def cancel(self):
@@ -313,6 +318,15 @@ class BakeJob:
         self.residual = float(residual)
         if self.user_progress is not None and self.user_progress(fraction, residual) is False:
             self.cancel_requested = True
+        if self.budget is not None and not self.cancel_requested:
+            # The engine reports before its first shot: the budget is for shooting, whatever the
+            # change itself cost. Stopping leaves a consistent state that shoots on from there.
+            now = time.perf_counter()
+            if self._shoot_until is None:
+                self._shoot_until = now + self.budget
+            if now >= self._shoot_until:
+                self.out_of_budget = True
+                return False
         return not self.cancel_requested
 
     def _full(self):
@@ -328,7 +342,7 @@ class BakeJob:
 
     def _update(self):
         base = dict(self.base.stats)
-        if not self.calls:
+        if self.unchanged:
             return dict(base, touched_points=0, seconds=0.0, shots_before=base.get("shots", 0),
                         rays_before=base.get("rays", 0), warnings=list(base.get("warnings", [])))
         try:
@@ -344,9 +358,12 @@ class BakeJob:
         st["rays_before"] = base.get("rays", 0)
         return st
 
-    def solve(self, progress=None):
-        """Run the solver. Errors are kept in self.error (also raised when not in a thread)."""
+    def solve(self, progress=None, budget=None):
+        """Run the solver; with `budget`, stop shooting after that many seconds of it (the job
+        succeeds, out_of_budget and not converged). Errors are kept in self.error (also raised when
+        not in a thread)."""
         self.user_progress = progress
+        self.budget = budget
         t = time.perf_counter()
         try:
             if self.cancel_requested:
@@ -363,7 +380,7 @@ class BakeJob:
             self.shots = max(0, int(st.get("shots", 0)) - int(st.pop("shots_before", 0)))
             old = len(before.get("warnings", [])) if before else 0
             self.warnings += [str(w) for w in st.get("warnings", [])[old:]]
-            if st.get("cancelled"):
+            if st.get("cancelled") and not self.out_of_budget:
                 self.cancel_requested = True
             return st
         except Exception as e:   # noqa: BLE001 -- reported by the caller
@@ -377,17 +394,18 @@ class BakeJob:
     def succeeded(self):
         return self.done and self.error is None and not self.cancel_requested and self.stats is not None
 
-    def colours(self):
+    def colours(self, exact_near_direct=True):
         """{object name: (loops, 4) float32 RGBA in the original mesh's loop order} for every
         visible, non-instanced mesh whose corners match its original mesh (a hidden object keeps the
-        colours it has)."""
+        colours it has). exact_near_direct=False: the near direct light interpolated, whatever the
+        settings (Solver.corner_radiance)."""
         out = {}
         for m in self.export.visible_meshes:
             if not m.matches_original or m.name != m.object_name:
                 if m.name == m.object_name:
                     self.warnings.append(f"{m.name}: modifiers change its topology; not written")
                 continue
-            rad = np.asarray(self.solver.corner_radiance(self.ids[m.name]), np.float32)
+            rad = np.asarray(self.solver.corner_radiance(self.ids[m.name], exact_near_direct), np.float32)
             n = len(rad) if m.loop_indices is None else int(m.loop_indices.max()) + 1
             rgba = np.ones((n, 4), np.float32)
             if m.loop_indices is None:

@@ -1,10 +1,11 @@
 """Dynamic update cost: per-frame incremental update against a full re-solve of the same frame.
 
-    blender -b --factory-startup --python bench/dynamic_update.py -- [preset] [frames] [full_repeats] [scenes] [db_cache_mb]
+    blender -b --factory-startup --python bench/dynamic_update.py -- [preset] [frames] [full_repeats] [scenes] [db_cache_mb] [playbacks]
 
 preset: draft (default) | default | high; frames: frames played per scene (default 8);
 full_repeats: full re-solves timed per scene (default 2); scenes: comma-separated names (all);
-db_cache_mb: the dB cache's cap (the add-on's default; 0 = no cache). Scenes:
+db_cache_mb: the dB cache's cap (the add-on's default; 0 = no cache); playbacks: runs of the
+playback below (default 3). Scenes:
 
   animated_room  the sample: a box moves and the point lamp ramps 30 W -> 120 W every frame
   room_20k       a 4 m room of ~20k vertices, one 0.4 m box moving across the floor, lamp fixed
@@ -19,6 +20,15 @@ The dB cache: the frames are played forward, then back (each move the reverse of
 "cpu s" is the process CPU time of an update (run with OMP_NUM_THREADS=1 for one thread's), "rays"
 all rays it traced, "changed" the rays the move changed (each needs a trace of the scene without
 the box, unless the cache answers: "hits"), "cache MB" what the cache holds after the last frame.
+
+Playback: the frame range played as the UI plays it (live_update.playing() forced on; every frame,
+1/fps apart, later when a frame's own work ran over): updates in a worker thread with a frame's time
+of shooting, colours written on the first frame after each ends. "main ms" is a frame_set's wall
+time (what the viewport waits for), "frames/update" how many frames an update spans, "residual" the
+median residual its colours were written at; "rms playing" compares the colours shown on the last
+frame with a fresh solve of it (they are some frames behind), "own frame" with a fresh solve of the
+frame they were solved for (the residual's share), "rms settled" the colours after playback stopped
+(live_update._watch) and the rest was shot to the threshold, which took "settle s".
 """
 import os
 import statistics
@@ -31,15 +41,18 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests", "addon"))
 sys.path.insert(0, os.path.join(ROOT, "sample_blends"))
+sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
 from conftest import load_package  # noqa: E402
 import make_samples as ms  # noqa: E402
+from reference import relative_rms  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 PRESET = (args[0] if args else "draft").upper()
 FRAMES = int(args[1]) if len(args) > 1 else 8
 FULL_REPEATS = int(args[2]) if len(args) > 2 else 2
 SCENES = args[3].split(",") if len(args) > 3 and args[3] else ["animated_room", "room_20k", "room_10k"]
-DB_CACHE_MB = float(args[4]) if len(args) > 4 else None
+DB_CACHE_MB = float(args[4]) if len(args) > 4 and args[4] else None
+PLAYBACKS = int(args[5]) if len(args) > 5 else 3
 
 pkg = load_package()
 pkg.register()
@@ -124,6 +137,60 @@ def med(xs):
     return statistics.median(xs) if xs else float("nan")
 
 
+def shown(scene, names):
+    return np.concatenate([pkg.writeback.read_mesh(bpy.data.objects[n].data)[:, :3] for n in names])
+
+
+def fresh_solve(scene, frame):
+    """(object names, stacked RGB) of a new Solver's solve of `frame`; the live Solver is untouched."""
+    current = scene.frame_current
+    with live.suspended():
+        scene.frame_set(frame)
+        job = pkg.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
+        job.solve()
+        scene.frame_set(current)
+    colours = job.colours()
+    names = sorted(colours)
+    return names, np.concatenate([colours[n][:, :3] for n in names])
+
+
+def play_back(scene):
+    """One playback of the frame range from a converged first frame (see the module's notes)."""
+    live.playing = lambda: False
+    scene.frame_set(scene.frame_start)
+    live.playing = lambda: True
+    step = live.frame_budget(scene)
+    main, written = [], []
+    start = tick = time.perf_counter()
+    for f in range(scene.frame_start + 1, scene.frame_end + 1):
+        tick += step
+        wait = tick - time.perf_counter()
+        if wait > 0:
+            time.sleep(wait)
+        else:
+            tick = time.perf_counter()
+        before = live.last_sync.get(scene.name)
+        t = time.perf_counter()
+        scene.frame_set(f)
+        main.append(time.perf_counter() - t)
+        info = live.last_sync.get(scene.name)
+        if info is not before and info.get("budgeted"):
+            written.append(info)
+    seconds = time.perf_counter() - start
+    names, reference = fresh_solve(scene, scene.frame_current)
+    playing = relative_rms(shown(scene, names), reference)
+    # the same colours against their own frame's light: what the residual costs, without the lag
+    own = relative_rms(shown(scene, names), fresh_solve(scene, written[-1]["frame"])[1])
+    live.playing = lambda: False
+    t = time.perf_counter()
+    live._watch()
+    settle = time.perf_counter() - t
+    assert live.last_sync[scene.name]["converged"]
+    return dict(fps=len(main) / seconds, main=med(main), main_max=max(main), updates=len(written),
+                span=len(main) / max(1, len(written)), residual=med([i["residual"] for i in written]),
+                playing=playing, own=own, settled=relative_rms(shown(scene, names), reference), settle=settle)
+
+
 def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     scene = make()
     scene.radiosity.preset = PRESET
@@ -162,6 +229,10 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         assert live.last_sync[scene.name]["mode"] == "incremental"
     db["back"] = played()
     db_mb = live.live_jobs[scene.name].stats["db_bytes"] / 2 ** 20
+    playing = live.playing
+    plays = [play_back(scene) for _ in range(PLAYBACKS)]
+    live.playing = playing
+    playback = {k: med([p[k] for p in plays]) for k in plays[0]}
     # full re-solves of frames just played (same export, a new Solver)
     full = []
     for f in todo[-full_repeats:]:
@@ -184,7 +255,7 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     return dict(scene=name, vertices=verts, points=first["points"], frames=len(todo), full=med(full),
                 update=med(upd), incremental=med(inc), frame=med(frame_wall), write=med(writes),
                 touched=med(touched), first=first["seconds_solve"], baked=med(baked), db=db, db_mb=db_mb,
-                db_cap=scene.radiosity.db_cache_mb)
+                db_cap=scene.radiosity.db_cache_mb, playback=playback, fps=scene.render.fps / scene.render.fps_base)
 
 
 def main():
@@ -213,6 +284,17 @@ def main():
             print(f"{r['scene']:14} {way:8} {d['cpu']:7.3f} {d['rays']:10.0f} {d['changed']:9.0f} {d['hits']:9.0f} "
                   f"{100 * d['hits'] / max(1, d['changed']):6.1f} {r['db_mb']:8.2f}")
     print()
+    print(f"playback ({PLAYBACKS} runs of the frame range, medians)")
+    head = (f"{'scene':14} {'fps':>5} {'of':>4} {'main ms':>8} {'max ms':>7} {'updates':>7} {'frames/upd':>10} "
+            f"{'residual':>8} {'rms playing':>11} {'own frame':>9} {'rms settled':>11} {'settle s':>8}")
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        p = r["playback"]
+        print(f"{r['scene']:14} {p['fps']:5.1f} {r['fps']:4.0f} {1000 * p['main']:8.1f} {1000 * p['main_max']:7.1f} "
+              f"{p['updates']:7.0f} {p['span']:10.1f} {100 * p['residual']:7.2f}% {100 * p['playing']:10.3f}% "
+              f"{100 * p['own']:8.3f}% {100 * p['settled']:10.3f}% {p['settle']:8.3f}")
+    print()
     print("full s: new Solver + solve() of a played frame; update s: Solver.update() of a frame change;")
     print("ratio = full / update (goal 50); touched: receiving points the update recomputed (engine's")
     print("touched_points / points); live s: export + diff + update + colours + write-back;")
@@ -223,6 +305,8 @@ def main():
             verdict = "yes" if r["frame"] <= 1 / 24 else "no"
             print(f"24 fps with write-back at ~10k vertices ({r['vertices']} vertices, {r['points']} points): "
                   f"live update {verdict} ({1 / r['frame']:.1f} fps, {1000 * r['frame']:.0f} ms a frame); "
+                  f"playing {'yes' if r['playback']['fps'] >= 0.95 * r['fps'] else 'no'} ({r['playback']['fps']:.1f} fps, "
+                  f"residual {100 * r['playback']['residual']:.2f}%); "
                   f"after Bake Animation {'yes' if r['baked'] <= 1 / 24 else 'no'} ({1 / r['baked']:.0f} fps)")
 
 

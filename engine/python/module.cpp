@@ -318,8 +318,10 @@ PYBIND11_MODULE(radiosity_engine, m) {
              d["absorbed"] = b.absorbed;
              return d;
            })
-      .def("corner_radiance", [](const Solver& s, int o) { return rows3(s.corner_radiance(o)); },
-           py::arg("object"), "(K, 3) float32 front-side outgoing radiance per input face corner")
+      .def("corner_radiance", [](const Solver& s, int o, bool exact) { return rows3(s.corner_radiance(o, exact)); },
+           py::arg("object"), py::arg("exact_near_direct") = true,
+           "(K, 3) float32 front-side outgoing radiance per input face corner (exact_near_direct=False: "
+           "the near direct light interpolated even with Settings.exact_near_direct)")
       .def("vertex_radiance", [](const Solver& s, int o) { return rows3(s.vertex_radiance(o)); },
            py::arg("object"), "(N, 3) float32 mean of each input vertex's corners")
       .def("refined",

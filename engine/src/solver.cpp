@@ -228,7 +228,9 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, d
 }
 
 void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling) {
-  auto last_report = std::chrono::steady_clock::now();
+  // Reported before the first shot too: a caller that budgets the shooting (live update during
+  // playback) starts its clock there and may stop before any shot.
+  auto last_report = std::chrono::steady_clock::time_point();
   long first_shot = stats.shots;
   std::vector<double> power = shooter_power();  // then kept up to date by each shot
   double limit = 0.0;  // the residual past which this cannot be converging
@@ -369,15 +371,17 @@ PowerBalance Solver::power_balance() const {
   return b;
 }
 
-std::vector<float> Solver::corner_radiance(int object) const {
+std::vector<float> Solver::corner_radiance(int object, bool exact_near_direct) const {
   const ObjectPatches& obj = impl_->mesh.objects.at(object);
-  std::vector<int> points;
-  for (int slot : obj.corner_slot)
-    if (slot >= 0) points.push_back(impl_->mesh.patches[slot / 4].point[slot % 4]);
-  impl_->prepare_near_direct(points);
+  if (exact_near_direct) {
+    std::vector<int> points;
+    for (int slot : obj.corner_slot)
+      if (slot >= 0) points.push_back(impl_->mesh.patches[slot / 4].point[slot % 4]);
+    impl_->prepare_near_direct(points);
+  }
   std::vector<float> out(3 * obj.corner_slot.size());
   for (size_t i = 0; i < obj.corner_slot.size(); ++i) {
-    dvec3 b = glm::max(impl_->corner_value(obj.corner_slot[i], true), dvec3(0.0));  // round-off negatives
+    dvec3 b = glm::max(impl_->corner_value(obj.corner_slot[i], exact_near_direct), dvec3(0.0));  // round-off negatives
     for (int k = 0; k < 3; ++k) out[3 * i + k] = float(b[k]);
   }
   return out;

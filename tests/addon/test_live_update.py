@@ -6,6 +6,7 @@ to stay quick on 2 cores: the check is that the incremental path gives what a fu
 """
 import os
 import sys
+import threading
 
 import bpy
 import numpy as np
@@ -231,6 +232,56 @@ def test_playback_matches_fresh_bake(addon, preset, frames):
     err = relative_rms(stacked(played), stacked(fresh))
     print(f"{preset}: playback of {len(frames)} frames vs fresh bake at 24: {100 * err:.3f}% RMS")
     assert err < BOUND
+
+
+def test_playback_shoots_on_a_budget_and_settles_when_it_stops(addon, monkeypatch):
+    """While the animation plays, updates run in a worker thread with a frame's time of shooting
+    (none here: the proxy for a budget kept, without timing); the residual left carries over, a frame
+    that changes while an update runs is not solved apart, and when playback stops the rest is shot:
+    the colours are then a fresh bake's."""
+    live = addon.live_update
+    scene = open_blend("animated_room")
+    threshold = scene.radiosity.threshold
+    scene.radiosity.live_update = True
+    scene.frame_set(1)
+    assert live.last_sync[scene.name]["mode"] == "full"
+    monkeypatch.setattr(live, "playing", lambda: True)
+    monkeypatch.setattr(live, "frame_budget", lambda scene: 0.0)
+    for f in range(2, 7):
+        scene.frame_set(f)
+        assert scene.name in live.playback            # the handler did not wait for the engine
+        info = live.finish(scene)                     # what the next frame does once it has ended
+        assert (info["frame"], info["mode"], info["budgeted"]) == (f, "incremental", True)
+        assert info["shots"] == 0 and not info["converged"] and info["residual"] > threshold
+
+    held = threading.Event()
+    solve = live._solve
+    monkeypatch.setattr(live, "_solve", lambda *args: (held.wait(), solve(*args)))
+    scene.frame_set(7)
+    scene.frame_set(8)                                # while 7's update runs: not solved apart
+    thread, _job, _base, info = live.playback[scene.name]
+    assert info["frame"] == 7
+    held.set()
+    thread.join()
+    scene.frame_set(9)                                # writes 7's colours, starts 9's update
+    assert live.last_sync[scene.name]["frame"] == 7 and live.playback[scene.name][3]["frame"] == 9
+    info = live.finish(scene)
+    assert info["frame"] == 9 and info["residual"] > threshold
+    playing = read(scene)
+
+    monkeypatch.setattr(live, "playing", lambda: False)
+    assert live._watch() is None                      # playback stopped: shot to the threshold
+    info = live.last_sync[scene.name]
+    assert (info["frame"], info["mode"], info["budgeted"]) == (9, "incremental", False)
+    assert info["converged"] and info["residual"] <= threshold and info["shots"] > 0
+    settled = read(scene)
+    check_finite(settled)
+    fresh = fresh_bake(scene)
+    err_playing = relative_rms(stacked(playing), stacked(fresh))
+    err = relative_rms(stacked(settled), stacked(fresh))
+    print(f"budgeted playback to frame 9 vs fresh bake: {100 * err_playing:.3f}% RMS playing, "
+          f"{100 * err:.3f}% settled")
+    assert err < BOUND and err < err_playing
 
 
 # ----------------------------------------------------------------------------- edits

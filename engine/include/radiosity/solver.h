@@ -36,7 +36,8 @@ struct PowerBalance {
   double injected = 0.0, unshot = 0.0, absorbed = 0.0;
 };
 
-// Called between shots with (progress in [0, 1], residual); returning false cancels the solve.
+// Called before the first shot and between shots (50 ms apart or more) with (progress in [0, 1],
+// residual); returning false cancels the solve.
 using ProgressCallback = std::function<bool(double, double)>;
 
 class Solver {
@@ -84,8 +85,9 @@ class Solver {
   // Outgoing radiance on the front side at each input face corner / vertex (mean of its corners);
   // zero on a hidden object. With Settings::exact_near_direct, the direct light of the surfaces
   // right around each corner is evaluated where it lands (near_direct.cpp), on first read after a
-  // solve or update.
-  std::vector<float> corner_radiance(int object) const;  // 3 floats per face corner
+  // solve or update, unless `exact_near_direct` is false: then it is interpolated, as without the
+  // setting (the exact read of a 10k room costs several updates: live update skips it while playing).
+  std::vector<float> corner_radiance(int object, bool exact_near_direct = true) const;  // 3 floats per face corner
   std::vector<float> vertex_radiance(int object) const;  // 3 floats per input vertex
 
   // The refined patch mesh of one object, for inspection and pictures (world positions), with the
