@@ -44,12 +44,26 @@ struct NearDetail {
   PieceRadiance at_piece;
 };
 
+// A point asked for: what it gains, and what that was worked out from.
+struct NearPoint {
+  dvec3 gained{0.0};         // on its front side
+  std::vector<int> patches;  // near it, whether they need a NearDetail or not
+  double reach = 0.0;        // how far from it they reach
+};
+
 struct Solver::Impl::NearDirect {
   std::vector<Source> sources;        // the direct light of the scene as it is
   std::vector<CornerUnshot> scratch;  // zero but for the patch being cut into cells
   std::unordered_map<int, NearDetail> detail;  // per patch near some point asked for
-  std::unordered_map<int, dvec3> gained;       // per point: what its front side gains
+  std::unordered_map<int, NearPoint> points;   // per point asked for
+  // Per corner point of a patch near some point asked for: the solver's direct light there (per
+  // side) then. Where it still holds, so does what the patch's corners' direct light decided.
+  std::unordered_map<int, std::array<dvec3, 2>> direct;
 };
+
+std::array<dvec3, 2> Solver::Impl::direct_now(int point) const {
+  return {front[point] - reflected_front[point], back[point] - reflected_back[point]};
+}
 
 std::array<dvec3, 2> Solver::Impl::direct_at(const dvec3& y, const dvec3& normal) const {
   // Gathered under an index past every receiving point: no patch takes it for one of its corners.
@@ -139,7 +153,7 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
   NearDirect& nd = *near_direct;
   std::vector<int> wanted;
   for (int i : points)
-    if (!hidden_point[i] && mesh.points[i].normal != dvec3(0.0) && nd.gained.try_emplace(i, dvec3(0.0)).second)
+    if (!hidden_point[i] && mesh.points[i].normal != dvec3(0.0) && nd.points.try_emplace(i).second)
       wanted.push_back(i);
   int count = int(wanted.size());
 
@@ -147,6 +161,7 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
   // holds patches no wider than its diameter, so one farther than (3 + 2 near_factor) radii holds none.
   double near = settings.near_factor;
   std::vector<std::vector<int>> patches(count);
+  std::vector<double> reach(count, 0.0);
 #pragma omp parallel for schedule(dynamic, 16)
   for (int k = 0; k < count; ++k) {
     const dvec3& x = mesh.points[wanted[k]].position;
@@ -159,9 +174,13 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
         if (d <= (3 + 2 * near) * n.radius) stack.push_back(n.left), stack.push_back(n.right);
       } else if (d <= (1 + near) * n.radius) {
         patches[k].push_back(tree.order[n.begin]);
+        reach[k] = std::max(reach[k], d + n.radius);
       }
     }
   }
+  for (const std::vector<int>& near_patches : patches)
+    for (int q : near_patches)
+      for (int c : mesh.patches[q].point) nd.direct.try_emplace(c, direct_now(c));
   // Cutting patches into cells fills the shot cache: one thread. Gathering only reads.
   std::vector<std::vector<const NearDetail*>> details(count);
   for (int k = 0; k < count; ++k)
@@ -180,14 +199,78 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
       gained[k] += h[0];
     }
   }
-  for (int k = 0; k < count; ++k) nd.gained[wanted[k]] = gained[k];
+  for (int k = 0; k < count; ++k) nd.points[wanted[k]] = {gained[k], std::move(patches[k]), reach[k]};
 }
 
 dvec3 Solver::Impl::near_direct_correction(int i) const {
   prepare_near_direct({i});
   if (!near_direct) return dvec3(0.0);
-  auto found = near_direct->gained.find(i);
-  return found == near_direct->gained.end() ? dvec3(0.0) : found->second;
+  auto found = near_direct->points.find(i);
+  return found == near_direct->points.end() ? dvec3(0.0) : found->second.gained;
+}
+
+void Solver::Impl::keep_near_direct(const std::vector<int>& objects, const std::vector<Zone>& zones) {
+  if (!near_direct) return;
+  NearDirect& nd = *near_direct;
+  nd.sources = direct_sources();
+  std::vector<char> moved(scene.meshes.size(), 0);
+  // A moved object's patch becomes near a point within (1 + near_factor) of its radius.
+  double approach = 0.0;
+  for (int o : objects) {
+    moved[o] = 1;
+    for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
+      for (int c : mesh.patches[q].vertex)
+        approach = std::max(approach, (1 + settings.near_factor) * glm::length(mesh.vertices[c] - mesh.patches[q].centre));
+  }
+  auto in_zone = [&](const Sphere& s) {
+    for (const Zone& z : zones)
+      if (overlap(s, z.before) || overlap(s, z.after)) return true;
+    return false;
+  };
+  // A patch's detail stands while its object stayed, its shooter's view of itself did too (no
+  // moved object near it), no lamp's or emitter's ray to it may cross a moved object (a shadow
+  // edge can cross a patch and miss its corners), and its corners' direct light is the same but
+  // for round-off (the solver's direct light is the difference of two sums that reflected light
+  // adds to alike). The world's light is let pass: every sky ray may cross the object, and past
+  // the points near it (below) what it takes is a smooth part of the sky, which interpolation
+  // between corners holds (kept against worked out anew: within 2e-5, test_dynamic.py).
+  std::unordered_map<int, bool> stale;
+  auto patch_stale = [&](int q) {
+    auto [it, fresh] = stale.try_emplace(q, false);
+    if (!fresh) return it->second;
+    const Patch& patch = mesh.patches[q];
+    const ClusterNode& shooter = tree.nodes[shooters[patch_shooter[q]]];
+    Sphere around{patch.centre, 0.0};
+    for (int v : patch.vertex) around.radius = std::max(around.radius, glm::length(mesh.vertices[v] - patch.centre));
+    bool gone = moved[patch.object] || in_zone({shooter.centroid, shooter.radius});
+    for (size_t k = 0; k < nd.sources.size() && !gone; ++k)
+      if (nd.sources[k].kind != Source::Kind::World)
+        for (const Zone& z : zones) gone = gone || nd.sources[k].may_reach(around, z);
+    for (int c : patch.point) {
+      auto then = nd.direct.find(c);
+      std::array<dvec3, 2> now = direct_now(c);
+      double scale = 1e-9 * (channel_sum(front[c]) + channel_sum(back[c]));
+      gone = gone || then == nd.direct.end() || glm::length(then->second[0] - now[0]) > scale ||
+             glm::length(then->second[1] - now[1]) > scale;
+    }
+    return it->second = gone;
+  };
+  for (const auto& entry : nd.detail) patch_stale(entry.first);  // every point's patches have one
+  auto object_of = [&](int i) { return mesh.patches[mesh.point_slots[mesh.point_slot_begin[i]] / 4].object; };
+  for (auto it = nd.points.begin(); it != nd.points.end();) {
+    const NearPoint& p = it->second;
+    bool gone = moved[object_of(it->first)] ||
+                in_zone({mesh.points[it->first].position, std::max(p.reach, approach)});
+    for (size_t k = 0; k < p.patches.size() && !gone; ++k) gone = patch_stale(p.patches[k]);
+    it = gone ? nd.points.erase(it) : std::next(it);
+  }
+  for (const auto& [q, gone] : stale)
+    if (gone) {
+      nd.detail.erase(q);
+      for (int c : mesh.patches[q].point) nd.direct.erase(c);
+    }
+  for (int o : objects)  // its patches, near no point asked for before, may be now
+    for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q) nd.detail.erase(q);
 }
 
 }  // namespace radiosity

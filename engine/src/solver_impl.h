@@ -136,7 +136,7 @@ struct Solver::Impl {
   void change_lamp(int index, const Lamp& lamp);
   bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
   void change_material(int index, const Material& material);
-  void change_object(int object, const MeshDesc& mesh, const RefinedMesh& refined);
+  Zone change_object(int object, const MeshDesc& mesh, const RefinedMesh& refined);  // where it was and is
   std::vector<char> touched;  // per point: its light was recomputed by this update
   void place(int object, const MeshDesc& mesh, const RefinedMesh& refined);  // geometry only
   void forget_nodes(int node);  // the cached views of itself of the subtree from `node`
@@ -151,6 +151,10 @@ struct Solver::Impl {
   void prepare_near_direct(const std::vector<int>& points) const;  // for many points, on all cores
   const NearDetail* near_detail(int patch) const;  // null if it needs none
   std::array<dvec3, 2> direct_at(const dvec3& y, const dvec3& normal) const;  // H per side
+  std::array<dvec3, 2> direct_now(int point) const;  // the solver's direct H at a point, per side
+  // After an update that moved, deformed, showed or hid `objects` (in `zones`) and changed no light:
+  // keeps what near_direct worked out where it still holds, forgets the rest.
+  void keep_near_direct(const std::vector<int>& objects, const std::vector<Zone>& zones);
 };
 
 template <class Wanted, class MakeBatch, class Gather, class Then>

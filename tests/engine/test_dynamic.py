@@ -194,6 +194,36 @@ def test_a_bad_addition_is_refused_whole():
     assert np.array_equal(values(solver, ids), before)
 
 
+def rug_room(world, n=10):
+    """The changing room at the default preset's sampling with a grid of n x n quads on its floor, so
+    that many reported points have near direct light worked out (Settings.exact_near_direct)."""
+    scene, ids, cube = changing_room(dict(ROOM_STATE, world=world), patch_size=0.35)
+    x, y = np.meshgrid(np.linspace(-0.95, 0.95, n + 1), np.linspace(-0.95, 0.95, n + 1))
+    corners = np.stack([x.ravel(), y.ravel(), np.full(x.size, 0.002)], 1)
+    i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
+    quads = np.stack([i, i + 1, i + n + 2, i + n + 1], -1).astype(np.int32)
+    rug = scene.add_mesh(corners, np.full(n * n, 4, np.int32), quads.ravel(), np.zeros(n * n, np.int32))
+    solver = engine.Solver(scene, settings("default", 1e-2))
+    solver.solve()
+    return solver, ids + [rug], cube
+
+
+# (world, bound): without a sky, bit-identical; a sky's light is let pass far from the move (near_direct.cpp)
+@pytest.mark.parametrize("world, bound", [((0.0, 0.0, 0.0), 0.0), (ROOM_STATE["world"], 2e-5)])
+def test_near_direct_light_kept_across_moves_equals_it_worked_out_anew(world, bound):
+    kept, ids, cube = rug_room(world)
+    read = lambda solver: np.concatenate([solver.corner_radiance(i) for i in ids])  # noqa: E731
+    anew, _, _ = rug_room(world)  # the same states, its near direct light read only at the end
+    read(kept)
+    for place in [(0.2, -0.4, 0.3), (-0.5, 0.5, 0.8)]:
+        for solver in (kept, anew):
+            solver.set_transform(cube, translation(place))
+            solver.update()
+        got = read(kept)  # the second read keeps what the first worked out
+    want = read(anew)
+    assert np.abs(got - want).max() <= bound * want.max()
+
+
 def test_a_hidden_object_takes_no_part():
     s = settings("draft")
     scene, ids, cube = changing_room(dict(ROOM_STATE, cube_visible=False, cube_emission=20.0), patch_size=0.35)
