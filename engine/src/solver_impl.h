@@ -22,6 +22,7 @@
 #include <memory>
 #include <optional>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace radiosity {
@@ -40,7 +41,9 @@ struct Solver::Impl {
   std::unique_ptr<Visibility> vis;
   std::vector<int> shooters;       // cluster nodes
   std::vector<int> patch_shooter;  // patch -> index in shooters
-  void cut_shooters();             // both, from the tree as it is
+  // Shooter s's patches, ascending: shooter_patches[shooter_begin[s] .. shooter_begin[s + 1]).
+  std::vector<int> shooter_begin, shooter_patches;
+  void cut_shooters();             // all four, from the tree as it is
   mutable ShotCache shot_cache;  // filled as shots are built
   DbCache db_cache;              // of the object that moved last (dynamic_update.cpp)
 
@@ -49,6 +52,7 @@ struct Solver::Impl {
   std::vector<CornerUnshot> unshot;    // per patch
   std::vector<CornerUnshot> shot;      // per patch: all it has sent so far
   std::vector<dvec3> delta_front, delta_back;  // a gather in flight, discarded if cancelled
+  std::vector<dvec3> spare_front, spare_back;  // all zero by the next gather (gather_all)
   std::vector<char> hidden_point;  // per point: its object is hidden, and it gathers nothing
   void mark_hidden(int object);    // hidden_point from the object's visibility
   bool injected = false;
@@ -95,11 +99,10 @@ struct Solver::Impl {
   void apply_delta(Light light);
   // apply_delta()'s loops, shared by the threads of the parallel region it is called in (or all on
   // the calling thread outside one), with no barrier. First, shooter `sent` (if any) moves `omega`
-  // times its unshot radiance to what it has shot. Leaves each patch's share of shooter_power() in
-  // patch_power, read in the same pass.
+  // times its unshot radiance to what it has shot. Leaves shooter_power() in absorbed_power,
+  // summed in the same pass.
   void absorb_delta(int sent, double omega, Light light);
-  std::vector<double> patch_power;
-  std::vector<double> summed_power() const;  // shooter_power() from patch_power
+  std::vector<double> absorbed_power;
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
   void apply_direct_delta();    // apply_delta() of direct light, for a change of it: the residual's scale follows
   void add_direct_power(double change);  // the residual's scale follows the direct light that lands
@@ -155,10 +158,15 @@ struct Solver::Impl {
 template <class Wanted, class MakeBatch, class Gather, class Then>
 bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& gather_one, bool cancellable,
                               Then&& then) {
-  delta_front.assign(mesh.points.size(), dvec3(0.0));
-  delta_back.assign(mesh.points.size(), dvec3(0.0));
-  long long rays = 0;
   int count = int(mesh.points.size());
+  // The last gather's delta is dead from here on: it becomes the spare, cleared while this one runs.
+  std::swap(delta_front, spare_front);
+  std::swap(delta_back, spare_back);
+  if (delta_front.size() != size_t(count)) {
+    delta_front.assign(count, dvec3(0.0));
+    delta_back.assign(count, dvec3(0.0));
+  }
+  long long rays = 0;
   auto cancelled = [&] { return cancellable && cancel_requested.load(std::memory_order_relaxed); };
   std::atomic<int> passed_over{0};  // receivers left out on cancelling: counted, so all threads agree
   // Small scenes stay on one thread: thousands of tiny parallel regions lose to spinning barriers,
@@ -166,8 +174,9 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
 #pragma omp parallel reduction(+ : rays) if (count > kParallelMinimum)
   {
     OcclusionBatch batch = batch_for();
-    // No barrier after the loop: each thread flushes its own batch, into its own receivers.
-#pragma omp for schedule(dynamic, 32) nowait
+    // No barrier after the loop: each thread flushes its own batch, into its own receivers. Guided,
+    // so that the last chunks, which leave one thread waiting at the barrier below, are small.
+#pragma omp for schedule(guided, 4) nowait
     for (int i = 0; i < count; ++i) {
       if (cancelled()) {
         passed_over.fetch_add(1, std::memory_order_relaxed);
@@ -179,6 +188,11 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
     }
     batch.flush();
     rays += batch.rays_traced();
+    // Cleared by whichever thread is done gathering first, while the other finishes: on one thread
+    // before the region it was 29% of a draft solve's serial work (callgrind), and a barrier of its
+    // own would cost a time slice under load.
+#pragma omp for schedule(dynamic, 1024) nowait
+    for (int i = 0; i < int(spare_front.size()); ++i) spare_front[i] = spare_back[i] = dvec3(0.0);
     if constexpr (!std::is_same_v<std::decay_t<Then>, Nothing>) {
       // The one barrier a shot's serial work costs on all cores: `then` reads the whole delta.
 #pragma omp barrier
