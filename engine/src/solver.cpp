@@ -62,12 +62,6 @@ void Solver::Impl::cut_shooters() {
     const ClusterNode& n = tree.nodes[shooters[s]];
     for (int i = n.begin; i < n.end; ++i) patch_shooter[tree.order[i]] = int(s);
   }
-  shooter_begin.assign(shooters.size() + 1, 0);
-  for (int s : patch_shooter) ++shooter_begin[s + 1];
-  for (size_t s = 0; s < shooters.size(); ++s) shooter_begin[s + 1] += shooter_begin[s];
-  shooter_patches.resize(mesh.patches.size());
-  std::vector<int> next(shooter_begin.begin(), shooter_begin.end() - 1);
-  for (size_t p = 0; p < mesh.patches.size(); ++p) shooter_patches[next[patch_shooter[p]]++] = int(p);
   stats.shooters = int(shooters.size());
 }
 
@@ -77,14 +71,14 @@ void Solver::Impl::mark_hidden(int object) {
 }
 
 void Solver::Impl::apply_delta(Light light) {
-  absorbed_power.resize(shooters.size());
+  patch_power.resize(mesh.patches.size());
 #pragma omp parallel if (mesh.points.size() > 16 * kParallelMinimum)
   absorb_delta(-1, 0.0, light);
 }
 
 RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light light) {
   int points = int(mesh.points.size());
-  int shooter_count = int(shooters.size());
+  int patches = int(mesh.patches.size());
   bool reflected = light == Light::reflected;
 #pragma omp for schedule(static) nowait
   for (int i = 0; i < points; ++i) {
@@ -95,33 +89,32 @@ RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light ligh
       reflected_back[i] += delta_back[i];
     }
   }
-  // The patches read only the delta: no barrier between the loops. Shooter by shooter, each one's
-  // patches in the order shooter_power() sums them, so the powers come out the same to the last
-  // bit, and are summed on all cores: on one thread after the region, that was 15% of a draft
-  // solve's serial work (callgrind).
-#pragma omp for schedule(dynamic, 8) nowait
-  for (int s = 0; s < shooter_count; ++s) {
-    double power = 0.0;
-    for (int i = shooter_begin[s]; i < shooter_begin[s + 1]; ++i) {
-      int p = shooter_patches[i];
-      if (s == sent)
-        for (int k = 0; k < 8; ++k) {
-          shot[p][k] += omega * unshot[p][k];
-          unshot[p][k] *= 1.0 - omega;  // over-relaxation leaves it negative
-        }
-      const Patch& patch = mesh.patches[p];
-      if (patch.area != 0) {
-        for (int c = 0; c < 4; ++c) {
-          const dvec3& rho = mesh.reflectance[4 * p + c];
-          dvec3 r = reflected ? mesh.onward[4 * p + c] * rho : rho;
-          unshot[p][c * 2 + 0] += r * delta_front[patch.point[c]];
-          unshot[p][c * 2 + 1] += r * delta_back[patch.point[c]];
-        }
+  // The patches read only the delta: no barrier between the loops.
+#pragma omp for schedule(static) nowait
+  for (int p = 0; p < patches; ++p) {
+    if (sent >= 0 && patch_shooter[p] == sent)
+      for (int k = 0; k < 8; ++k) {
+        shot[p][k] += omega * unshot[p][k];
+        unshot[p][k] *= 1.0 - omega;  // over-relaxation leaves it negative
       }
-      power += unshot_power(unshot[p], patch.area);
+    const Patch& patch = mesh.patches[p];
+    if (patch.area != 0) {
+      for (int c = 0; c < 4; ++c) {
+        const dvec3& rho = mesh.reflectance[4 * p + c];
+        dvec3 r = reflected ? mesh.onward[4 * p + c] * rho : rho;
+        unshot[p][c * 2 + 0] += r * delta_front[patch.point[c]];
+        unshot[p][c * 2 + 1] += r * delta_back[patch.point[c]];
+      }
     }
-    absorbed_power[s] = power;
+    patch_power[p] = unshot_power(unshot[p], patch.area);
   }
+}
+
+std::vector<double> Solver::Impl::summed_power() const {
+  // On one thread in patch order, as shooter_power() sums: the same to the last bit.
+  std::vector<double> power(shooters.size(), 0.0);
+  for (size_t p = 0; p < mesh.patches.size(); ++p) power[patch_shooter[p]] += patch_power[p];
+  return power;
 }
 
 std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>& radiance, bool reflected,
@@ -222,14 +215,14 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, d
   Shot sent = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[s], unshot, settings.samples_indirect,
                            omega, settings.near_factor, far_samples(power[s], sampling));
   sent.reflected = true;
-  absorbed_power.resize(shooters.size());
+  patch_power.resize(mesh.patches.size());
   // The delta is applied on every core the gather ran on, after one barrier: on one thread it was a
   // tenth of a draft shot's time on two.
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }, true,
                   [&] { absorb_delta(s, omega, Light::reflected); }))
     return false;
-  power = absorbed_power;
+  power = summed_power();
   ++stats.shots;
   return true;
 }

@@ -41,9 +41,7 @@ struct Solver::Impl {
   std::unique_ptr<Visibility> vis;
   std::vector<int> shooters;       // cluster nodes
   std::vector<int> patch_shooter;  // patch -> index in shooters
-  // Shooter s's patches, ascending: shooter_patches[shooter_begin[s] .. shooter_begin[s + 1]).
-  std::vector<int> shooter_begin, shooter_patches;
-  void cut_shooters();             // all four, from the tree as it is
+  void cut_shooters();             // both, from the tree as it is
   mutable ShotCache shot_cache;  // filled as shots are built
   DbCache db_cache;              // of the object that moved last (dynamic_update.cpp)
 
@@ -99,10 +97,11 @@ struct Solver::Impl {
   void apply_delta(Light light);
   // apply_delta()'s loops, shared by the threads of the parallel region it is called in (or all on
   // the calling thread outside one), with no barrier. First, shooter `sent` (if any) moves `omega`
-  // times its unshot radiance to what it has shot. Leaves shooter_power() in absorbed_power,
-  // summed in the same pass.
+  // times its unshot radiance to what it has shot. Leaves each patch's share of shooter_power() in
+  // patch_power, read in the same pass.
   void absorb_delta(int sent, double omega, Light light);
-  std::vector<double> absorbed_power;
+  std::vector<double> patch_power;
+  std::vector<double> summed_power() const;  // shooter_power() from patch_power
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
   void apply_direct_delta();    // apply_delta() of direct light, for a change of it: the residual's scale follows
   void add_direct_power(double change);  // the residual's scale follows the direct light that lands
