@@ -583,9 +583,10 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       }
       dvec3 d = e.centroid - x;
       bool far = glm::dot(d, d) > e.far2;
-      // Asked before the form factor, which it spares for most rays an update passes over.
-      Sphere reached = far ? far_end(e, batch.visibility().epsilon()) : Sphere{e.centroid, e.radius};
-      if (zone && !zone->may_cross(x, reached)) continue;
+      // Asked before the form factor, which it spares for most rays an update passes over. The
+      // sphere only with a zone: worked out ahead of the test, it cost 0.35% of a solve's instructions.
+      if (zone && !zone->may_cross(x, far ? far_end(e, batch.visibility().epsilon()) : Sphere{e.centroid, e.radius}))
+        continue;
       if (far) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal,
                    [&]() __attribute__((always_inline)) { return cluster_form_factor(x, n, e); }, e.radiance,

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <smmintrin.h>
+
 namespace radiosity {
 
 namespace {
@@ -234,12 +236,29 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
   if (count_ == 0) return;
   // Each segment stops epsilon short of its end. Worked out here for the whole batch, where the
   // square roots and divisions of different rays overlap: one ray at a time, between form factors,
-  // their latency was about 6% of a single-threaded solve.
+  // their latency was about 6% of a single-threaded solve. Four rays at a time (SSE, in the
+  // baseline ISA too): one at a time the loop waited on the divider, 1.7% of a default solve's
+  // time on one thread (perf). The same operations in the same order as one at a time, so the
+  // same bits.
   float eps = float(vis_.epsilon());
-  for (unsigned i = 0; i < count_; ++i) {
-    RTCRay& r = rays_[i];
+  auto shorten = [&](RTCRay& r) {
     if (r.tfar == kSegment) r.tfar = 1.0f - eps / std::sqrt(r.dir_x * r.dir_x + r.dir_y * r.dir_y + r.dir_z * r.dir_z);
+  };
+  const __m128 one = _mm_set1_ps(1.0f), epsilon = _mm_set1_ps(eps), segment = _mm_set1_ps(kSegment);
+  unsigned i = 0;
+  for (; i + 4 <= count_; i += 4) {
+    RTCRay* r = rays_ + i;
+    __m128 x = _mm_setr_ps(r[0].dir_x, r[1].dir_x, r[2].dir_x, r[3].dir_x);
+    __m128 y = _mm_setr_ps(r[0].dir_y, r[1].dir_y, r[2].dir_y, r[3].dir_y);
+    __m128 z = _mm_setr_ps(r[0].dir_z, r[1].dir_z, r[2].dir_z, r[3].dir_z);
+    __m128 tfar = _mm_setr_ps(r[0].tfar, r[1].tfar, r[2].tfar, r[3].tfar);
+    __m128 length = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
+    __m128 shortened = _mm_sub_ps(one, _mm_div_ps(epsilon, length));
+    alignas(16) float out[4];
+    _mm_store_ps(out, _mm_blendv_ps(tfar, shortened, _mm_cmpeq_ps(tfar, segment)));
+    for (int l = 0; l < 4; ++l) r[l].tfar = out[l];
   }
+  for (; i < count_; ++i) shorten(rays_[i]);
   if (changed_object_ >= 0) {
     count_ = keep_changed();
     traced_ += trace_without();
