@@ -258,43 +258,37 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
                 db_cap=scene.radiosity.db_cache_mb, playback=playback, fps=scene.render.fps / scene.render.fps_base)
 
 
+def table(head, lines):
+    print(head)
+    print("-" * len(head))
+    for line in lines:
+        print(line)
+    print()
+
+
 def main():
     print(f"Radiosity dynamic update bench: preset {PRESET.lower()}, {FRAMES} frames a scene, "
           f"{FULL_REPEATS} full re-solves a scene; medians; 2 cores (shared)")
     makers = {"animated_room": animated_room, "room_20k": lambda: room_scene(20000),
               "room_10k": lambda: room_scene(10000)}
     rows = [run(name, makers[name]) for name in SCENES]
-    head = (f"{'scene':14} {'vertices':>8} {'points':>7} {'full s':>8} {'update s':>9} {'ratio':>6} "
-            f"{'touched':>8} {'live s':>8} {'write ms':>8} {'frame s':>8} {'fps':>6} {'baked fps':>9}")
-    print(head)
-    print("-" * len(head))
-    for r in rows:
-        ratio = r["full"] / r["update"] if r["update"] > 0 else float("inf")
-        print(f"{r['scene']:14} {r['vertices']:8d} {r['points']:7d} {r['full']:8.3f} {r['update']:9.3f} "
-              f"{ratio:6.1f} {100 * r['touched']:7.1f}% {r['incremental']:8.3f} {1000 * r['write']:8.2f} "
-              f"{r['frame']:8.3f} {1 / r['frame']:6.1f} {1 / r['baked']:9.1f}")
-    print()
+    table(f"{'scene':14} {'vertices':>8} {'points':>7} {'full s':>8} {'update s':>9} {'ratio':>6} "
+          f"{'touched':>8} {'live s':>8} {'write ms':>8} {'frame s':>8} {'fps':>6} {'baked fps':>9}",
+          [f"{r['scene']:14} {r['vertices']:8d} {r['points']:7d} {r['full']:8.3f} {r['update']:9.3f} "
+           f"{r['full'] / r['update'] if r['update'] > 0 else float('inf'):6.1f} {100 * r['touched']:7.1f}% "
+           f"{r['incremental']:8.3f} {1000 * r['write']:8.2f} {r['frame']:8.3f} {1 / r['frame']:6.1f} "
+           f"{1 / r['baked']:9.1f}" for r in rows])
     print(f"dB cache (cap {rows[0]['db_cap']:g} MB): the frames above played forward, then back; medians per update")
-    head = (f"{'scene':14} {'way':8} {'cpu s':>7} {'rays':>10} {'changed':>9} {'hits':>9} {'hit %':>6} "
-            f"{'cache MB':>8}")
-    print(head)
-    print("-" * len(head))
-    for r in rows:
-        for way, d in r["db"].items():
-            print(f"{r['scene']:14} {way:8} {d['cpu']:7.3f} {d['rays']:10.0f} {d['changed']:9.0f} {d['hits']:9.0f} "
-                  f"{100 * d['hits'] / max(1, d['changed']):6.1f} {r['db_mb']:8.2f}")
-    print()
+    table(f"{'scene':14} {'way':8} {'cpu s':>7} {'rays':>10} {'changed':>9} {'hits':>9} {'hit %':>6} {'cache MB':>8}",
+          [f"{r['scene']:14} {way:8} {d['cpu']:7.3f} {d['rays']:10.0f} {d['changed']:9.0f} {d['hits']:9.0f} "
+           f"{100 * d['hits'] / max(1, d['changed']):6.1f} {r['db_mb']:8.2f}" for r in rows for way, d in r["db"].items()])
     print(f"playback ({PLAYBACKS} runs of the frame range, medians)")
-    head = (f"{'scene':14} {'fps':>5} {'of':>4} {'main ms':>8} {'max ms':>7} {'updates':>7} {'frames/upd':>10} "
-            f"{'residual':>8} {'rms playing':>11} {'own frame':>9} {'rms settled':>11} {'settle s':>8}")
-    print(head)
-    print("-" * len(head))
-    for r in rows:
-        p = r["playback"]
-        print(f"{r['scene']:14} {p['fps']:5.1f} {r['fps']:4.0f} {1000 * p['main']:8.1f} {1000 * p['main_max']:7.1f} "
-              f"{p['updates']:7.0f} {p['span']:10.1f} {100 * p['residual']:7.2f}% {100 * p['playing']:10.3f}% "
-              f"{100 * p['own']:8.3f}% {100 * p['settled']:10.3f}% {p['settle']:8.3f}")
-    print()
+    table(f"{'scene':14} {'fps':>5} {'of':>4} {'main ms':>8} {'max ms':>7} {'updates':>7} {'frames/upd':>10} "
+          f"{'residual':>8} {'rms playing':>11} {'own frame':>9} {'rms settled':>11} {'settle s':>8}",
+          [f"{r['scene']:14} {p['fps']:5.1f} {r['fps']:4.0f} {1000 * p['main']:8.1f} {1000 * p['main_max']:7.1f} "
+           f"{p['updates']:7.0f} {p['span']:10.1f} {100 * p['residual']:7.2f}% {100 * p['playing']:10.3f}% "
+           f"{100 * p['own']:8.3f}% {100 * p['settled']:10.3f}% {p['settle']:8.3f}"
+           for r in rows for p in [r["playback"]]])
     print("full s: new Solver + solve() of a played frame; update s: Solver.update() of a frame change;")
     print("ratio = full / update (goal 50); touched: receiving points the update recomputed (engine's")
     print("touched_points / points); live s: export + diff + update + colours + write-back;")
