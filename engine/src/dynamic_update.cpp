@@ -156,6 +156,7 @@ void Solver::Impl::add(const SceneDesc& more) {
   }
   // Meshes come hidden, and appear as a hidden object does: a move from nowhere.
   int degenerate = mesh.degenerate_patches;
+  int first_object = int(scene.meshes.size());
   for (MeshDesc m : more.meshes) {
     int object = int(scene.meshes.size());
     m.dynamic = true;
@@ -166,16 +167,8 @@ void Solver::Impl::add(const SceneDesc& more) {
     tree.add_object(mesh);
     vis->add_object(mesh);
   }
-  for (auto* points : {&front, &back, &reflected_front, &reflected_back}) points->resize(mesh.points.size(), dvec3(0.0));
-  CornerUnshot none;
-  none.fill(dvec3(0.0));
-  unshot.resize(mesh.patches.size(), none);
-  shot.resize(mesh.patches.size(), none);
-  hidden_point.resize(mesh.points.size(), 1);
-  cut_shooters();
+  fit_to_mesh(first_object);
   near_direct.reset();
-  stats.patches = int(mesh.patches.size());
-  stats.points = int(mesh.points.size());
   if (mesh.degenerate_patches > degenerate)
     stats.warnings.push_back(std::to_string(mesh.degenerate_patches - degenerate) +
                              " degenerate (zero-area) patches of added objects were left out");

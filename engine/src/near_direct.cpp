@@ -213,14 +213,18 @@ void Solver::Impl::keep_near_direct(const std::vector<int>& objects, const std::
   if (!near_direct) return;
   NearDirect& nd = *near_direct;
   nd.sources = direct_sources();
+  auto sphere_of = [&](int q) {  // a patch's, as its cluster tree leaf's
+    Sphere s{mesh.patches[q].centre, 0.0};
+    for (int v : mesh.patches[q].vertex) s.radius = std::max(s.radius, glm::length(mesh.vertices[v] - s.centre));
+    return s;
+  };
   std::vector<char> moved(scene.meshes.size(), 0);
   // A moved object's patch becomes near a point within (1 + near_factor) of its radius.
   double approach = 0.0;
   for (int o : objects) {
     moved[o] = 1;
     for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
-      for (int c : mesh.patches[q].vertex)
-        approach = std::max(approach, (1 + settings.near_factor) * glm::length(mesh.vertices[c] - mesh.patches[q].centre));
+      approach = std::max(approach, (1 + settings.near_factor) * sphere_of(q).radius);
   }
   auto in_zone = [&](const Sphere& s) {
     for (const Zone& z : zones)
@@ -240,8 +244,7 @@ void Solver::Impl::keep_near_direct(const std::vector<int>& objects, const std::
     if (!fresh) return it->second;
     const Patch& patch = mesh.patches[q];
     const ClusterNode& shooter = tree.nodes[shooters[patch_shooter[q]]];
-    Sphere around{patch.centre, 0.0};
-    for (int v : patch.vertex) around.radius = std::max(around.radius, glm::length(mesh.vertices[v] - patch.centre));
+    Sphere around = sphere_of(q);
     bool gone = moved[patch.object] || in_zone({shooter.centroid, shooter.radius});
     for (size_t k = 0; k < nd.sources.size() && !gone; ++k)
       if (nd.sources[k].kind != Source::Kind::World)

@@ -37,22 +37,24 @@ Solver::Impl::Impl(SceneDesc s, const Settings& st)
   std::vector<bool> dynamic, visible;
   for (const MeshDesc& m : scene.meshes) dynamic.push_back(m.dynamic), visible.push_back(m.visible);
   vis = std::make_unique<Visibility>(mesh, dynamic, visible);
-  hidden_point.assign(mesh.points.size(), 0);
-  for (size_t o = 0; o < scene.meshes.size(); ++o) mark_hidden(int(o));
-
-  cut_shooters();
-  for (auto* points : {&front, &back, &reflected_front, &reflected_back}) points->assign(mesh.points.size(), dvec3(0.0));
-  CornerUnshot none;
-  none.fill(dvec3(0.0));
-  unshot.assign(mesh.patches.size(), none);
-  shot.assign(mesh.patches.size(), none);
-
-  stats.patches = int(mesh.patches.size());
-  stats.points = int(mesh.points.size());
+  fit_to_mesh(0);
   if (mesh.patches.empty()) stats.warnings.push_back("the scene has no geometry: nothing to light");
   if (mesh.degenerate_patches > 0)
     stats.warnings.push_back(std::to_string(mesh.degenerate_patches) +
                              " degenerate (zero-area) patches were left out");
+}
+
+void Solver::Impl::fit_to_mesh(int first_object) {
+  for (auto* points : {&front, &back, &reflected_front, &reflected_back}) points->resize(mesh.points.size(), dvec3(0.0));
+  CornerUnshot none;
+  none.fill(dvec3(0.0));
+  unshot.resize(mesh.patches.size(), none);
+  shot.resize(mesh.patches.size(), none);
+  hidden_point.resize(mesh.points.size(), 0);
+  for (size_t o = first_object; o < scene.meshes.size(); ++o) mark_hidden(int(o));
+  cut_shooters();
+  stats.patches = int(mesh.patches.size());
+  stats.points = int(mesh.points.size());
 }
 
 void Solver::Impl::cut_shooters() {

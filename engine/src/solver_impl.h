@@ -42,6 +42,10 @@ struct Solver::Impl {
   std::vector<int> shooters;       // cluster nodes
   std::vector<int> patch_shooter;  // patch -> index in shooters
   void cut_shooters();             // both, from the tree as it is
+  // The per-point and per-patch state grown to the mesh (new entries empty, the points of objects
+  // from `first_object` on hidden as their objects are) and the shooters cut again: on construction
+  // and after add().
+  void fit_to_mesh(int first_object);
   mutable ShotCache shot_cache;  // filled as shots are built
   DbCache db_cache;              // of the object that moved last (dynamic_update.cpp)
 
