@@ -133,7 +133,8 @@ def _lamp_call(index, l):
 
 # For the messages that report a rebuild.
 REBUILD_NOTE = ("the engine takes every change of the scene incrementally, objects, lamps and materials "
-                "added included, but for new quality settings or an object added beyond the scene's size")
+                "added included, but for new quality settings, an object added beyond the scene's size, or "
+                "deleted and replaced objects outweighing the scene")
 
 # Appended (with its index) to the name of a mesh or lamp the Solver keeps but the scene no longer
 # has as it was (align_export): no Blender name holds a NUL.
@@ -192,6 +193,22 @@ def align_export(old, new):
                    lights=lights + added_lights + list(fresh_lights.values()))
 
 
+def outgrown(aligned, sx):
+    """Why the Solver holding `aligned` (align_export's layout of the scene `sx`) should be dropped for
+    a new one, or None. It keeps every object deleted or replaced by another topology, hidden, for its
+    life: an edit session that keeps replacing a large object would grow it without end. Once those
+    hold more faces than the scene itself (faces stand for the patches they refine to), one full
+    solve of the scene as it is costs less than carrying them."""
+    names = {m.name for m in sx.meshes}
+    dead = [m for m in aligned.meshes if m.name not in names]
+    dead_faces = sum(len(m.face_sizes) for m in dead)
+    live_faces = sum(len(m.face_sizes) for m in sx.meshes)
+    if dead_faces <= live_faces:
+        return None
+    return (f"{len(dead)} objects deleted or replaced since the last full solve hold more faces than the "
+            f"scene ({dead_faces} against {live_faces})")
+
+
 def diff_exports(old, new, engine):
     """The engine calls [(Solver method name, args)] that turn the scene `old` (a SceneExport as a
     Solver holds it, mesh i its object i) into `new`, laid out alike (align_export): set_* for what
@@ -234,7 +251,8 @@ class BakeJob:
     it reuses base's engine Solver and sends only what changed since base's export (diff_exports),
     then calls Solver.update(); its `export` is then the scene as that Solver holds it (align_export:
     deleted objects stay in it, hidden, and what was added comes after). When the engine refuses the
-    change (an object added beyond the scene's size) it builds a new Solver and solves the whole scene
+    change (an object added beyond the scene's size), or what base's Solver keeps of deleted and
+    replaced objects outweighs the scene (outgrown), it builds a new Solver and solves the whole scene
     (`rebuild_reason` says why). `base` must not be used afterwards: its Solver now holds this job's
     scene."""
 
@@ -276,8 +294,11 @@ class BakeJob:
             elif settings_key(base.settings) != settings_key(self.settings):
                 self.rebuild_reason = "the quality settings changed"
             else:
-                self.export = align_export(base.export, sx)   # as the Solver will hold it
-                self.calls = diff_exports(base.export, self.export, self.engine)
+                aligned = align_export(base.export, sx)   # as the Solver will hold it
+                self.rebuild_reason = outgrown(aligned, sx)
+                if self.rebuild_reason is None:
+                    self.export = aligned
+                    self.calls = diff_exports(base.export, aligned, self.engine)
         if self.calls is not None:
             self.base = base
             self.solver = base.solver

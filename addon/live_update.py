@@ -10,8 +10,9 @@
   last got (bake.diff_exports: transforms, deformed positions, objects hidden, shown or deleted,
   materials, lamps, world, and with Solver.add new objects, lamps and materials and objects whose
   topology changed); only the differences are sent, Solver.update() shoots them, and the colours
-  are written (not to hidden objects: they keep theirs). New quality settings, or an object added
-  beyond the scene's size, need a new Solver and a full solve (printed).
+  are written (not to hidden objects: they keep theirs). New quality settings, an object added
+  beyond the scene's size, or deleted and replaced objects outweighing the scene (bake.outgrown)
+  need a new Solver and a full solve (printed).
 - While the animation plays (play()), the frame handler never waits for the engine: the export and
   diff run on the main thread, Solver.update() in a worker thread with one frame's time of shooting
   (bake.BakeJob's budget); what it leaves above the threshold is shot by the next update (temporal

@@ -77,17 +77,20 @@ def check_finite(colours):
         assert np.isfinite(v).all() and (v[:, :3] >= 0).all(), name
 
 
+def floor_grid(n):
+    """(vertices, faces) of an n x n grid of quads over [-2, 2]^2."""
+    x, y = np.meshgrid(np.linspace(-2, 2, n + 1), np.linspace(-2, 2, n + 1))
+    verts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
+    i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
+    return verts, np.stack([i, i + 1, i + n + 2, i + n + 1], -1).reshape(-1, 4).tolist()
+
+
 def edit_scene():
     """Floor grid (24 x 24 quads: shadows show at its vertices), a red box, an emitting panel,
     a point lamp and a dim world."""
     sc = ms.new_scene()
     quick(sc)
-    n = 24
-    x, y = np.meshgrid(np.linspace(-2, 2, n + 1), np.linspace(-2, 2, n + 1))
-    verts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
-    i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
-    faces = np.stack([i, i + 1, i + n + 2, i + n + 1], -1).reshape(-1, 4)
-    ms.mesh_object("Floor", verts, faces.tolist(), [ms.diffuse("Floor", (0.6, 0.6, 0.6))])
+    ms.mesh_object("Floor", *floor_grid(24), [ms.diffuse("Floor", (0.6, 0.6, 0.6))])
     ms.box("Box", (0.6, 0.6, 0.6), (0.0, 0.0, 0.0), 0.0, ms.diffuse("Red", (0.8, 0.2, 0.1)))
     ms.mesh_object("Panel", [(-1.9, -1, 0.2), (-1.9, 1, 0.2), (-1.9, 1, 1.2), (-1.9, -1, 1.2)], [(0, 1, 2, 3)],
                    [ms.emission("Glow", (1.0, 0.9, 0.7), 2.0)])
@@ -389,6 +392,33 @@ def test_keyframed_hide_render_plays_incrementally(addon):
     scene.frame_set(1)
     scene.frame_set(8)
     np.testing.assert_array_equal(addon.writeback.read_mesh(box.data), cache[1]["Box"])
+
+
+def test_replaced_objects_outweighing_the_scene_start_a_new_solver(addon):
+    """The Solver keeps a floor replaced by another topology, hidden. The first replacement is an
+    update; after the second, the kept floors hold more faces than the scene: a new Solver without
+    them, whose colours are a fresh bake's."""
+    live, bake = addon.live_update, addon.bake
+    scene = edit_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    floor = scene.objects["Floor"]
+    for n, mode in ((25, "incremental"), (26, "full")):      # 576 faces kept of 631, then 1,201 of 682
+        me = bpy.data.meshes.new(f"Floor{n}")
+        verts, faces = floor_grid(n)
+        me.from_pydata(verts.tolist(), [], faces)
+        me.materials.append(bpy.data.materials["Floor"])
+        floor.data = me
+        bpy.context.view_layer.update()
+        info = live.last_sync[scene.name]
+        assert info["mode"] == mode, info
+    assert "hold more faces than the scene" in info["reason"], info
+    assert not [m.name for m in live.live_jobs[scene.name].export.meshes if bake.RETIRED in m.name]
+    got = read(scene)
+    check_finite(got)
+    err = relative_rms(stacked(got), stacked(fresh_bake(scene)))
+    print(f"after a new solver for outgrown replacements, vs fresh bake: {100 * err:.3g}% RMS")
+    assert err < BOUND
 
 
 def test_delete_and_undo_are_incremental(addon):
