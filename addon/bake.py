@@ -122,13 +122,7 @@ def _same(a, b):
 
 def _lamp_call(index, l):
     """The Solver.set_*_light call (name, args) that sets lamp `index` to LightExport `l`."""
-    if l.kind == "point":
-        return "set_point_light", (index, l.position, l.intensity, l.radius)
-    if l.kind == "spot":
-        return "set_spot_light", (index, l.position, l.direction, l.intensity, l.radius, l.spot_size, l.spot_blend)
-    if l.kind == "sun":
-        return "set_sun_light", (index, l.direction, l.irradiance, l.angle)
-    return "set_area_light", (index, l.position, l.u_half_axis, l.v_half_axis, l.radiance, l.shape)
+    return f"set_{l.kind}_light", (index, *exporter.lamp_args(l))
 
 
 # For the messages that report a rebuild.

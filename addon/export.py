@@ -527,6 +527,18 @@ def export_scene(depsgraph=None, use_render_levels=True):
 
 
 # ----------------------------------------------------------------------------- engine feed
+def lamp_args(l):
+    """What the engine takes of LightExport `l`: the arguments of Scene.add_{kind}_light, and of
+    Solver.set_{kind}_light after the lamp's index."""
+    if l.kind == "point":
+        return l.position, l.intensity, l.radius
+    if l.kind == "spot":
+        return l.position, l.direction, l.intensity, l.radius, l.spot_size, l.spot_blend
+    if l.kind == "sun":
+        return l.direction, l.irradiance, l.angle
+    return l.position, l.u_half_axis, l.v_half_axis, l.radiance, l.shape
+
+
 def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
     """Build an engine Scene from a SceneExport. `engine` is the radiosity_engine module (passed in,
     so this file imports without it). `dynamic`: None = animated objects, or a set of mesh names.
@@ -545,13 +557,6 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
             refine=m.refine, level=m.level, patch_size=patch_size, dynamic=bool(dyn), name=m.name,
             visible=m.visible, smooth=m.smooth, corner_reflectance=m.corner_reflectance)
     for l in sx.lights[first[2]:]:
-        if l.kind == "point":
-            s.add_point_light(l.position, l.intensity, l.radius)
-        elif l.kind == "spot":
-            s.add_spot_light(l.position, l.direction, l.intensity, l.radius, l.spot_size, l.spot_blend)
-        elif l.kind == "sun":
-            s.add_sun_light(l.direction, l.irradiance, l.angle)
-        elif l.kind == "area":
-            s.add_area_light(l.position, l.u_half_axis, l.v_half_axis, l.radiance, l.shape)
+        getattr(s, f"add_{l.kind}_light")(*lamp_args(l))
     s.set_world(np.asarray(sx.world, np.float64))
     return s, ids
