@@ -59,6 +59,7 @@ def engine_settings(props, engine=None):
     s.relaxation = float(props.relaxation)
     s.exact_near_direct = bool(props.exact_near_direct)
     s.db_cache_mb = float(props.db_cache_mb)
+    s.max_patches = int(props.max_patches)
     return s
 
 
@@ -109,9 +110,10 @@ def effects_of(sx):
 
 # ----------------------------------------------------------------------------- incremental updates
 def settings_key(settings):
-    """What must match for an engine Solver to be reused (the dB cache's cap is fixed in it too)."""
+    """What must match for an engine Solver to be reused (the dB cache's cap and the patch limit are
+    fixed in it too)."""
     from .properties import KNOBS
-    return tuple(getattr(settings, k) for k in KNOBS + ("db_cache_mb",))
+    return tuple(getattr(settings, k) for k in KNOBS + ("db_cache_mb", "max_patches"))
 
 
 def _same(a, b):

@@ -74,6 +74,7 @@ def draw_settings(layout, context):
     col.prop(props, "relaxation")
     layout.prop(props, "exact_near_direct")
     layout.prop(props, "db_cache_mb")
+    layout.prop(props, "max_patches")
 
 
 def draw_results(layout, context):

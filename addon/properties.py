@@ -52,6 +52,11 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
         description="Memory an update may keep of what the scene around a moving object does to the "
                     "rays its moves change, so that moving it back or on traces them no more; past "
                     "it they are traced again (same result). 0: no cache. Presets leave it as it is")
+    max_patches: IntProperty(
+        name="Patch Limit", default=2000000, min=1000, soft_max=20000000,
+        description="A scene that would refine to more patches is refused with a message (naming the "
+                    "object that makes the most) before anything is refined: a solve holds about "
+                    "2.3 KB a patch. Presets leave it as it is")
     live_update: BoolProperty(
         name="Live Update", default=False,
         description="Update the lighting on frame change and while editing: only what changed is "

@@ -165,6 +165,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def_readwrite("relaxation", &Settings::relaxation)
       .def_readwrite("exact_near_direct", &Settings::exact_near_direct)
       .def_readwrite("max_shots", &Settings::max_shots)
+      .def_readwrite("max_patches", &Settings::max_patches)
       .def_readwrite("db_cache_mb", &Settings::db_cache_mb);
 
   py::class_<SceneDesc>(m, "Scene")

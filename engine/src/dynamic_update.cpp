@@ -147,6 +147,7 @@ void Solver::Impl::add(const SceneDesc& more) {
       if (!(glm::length(dvec3(m.transform * glm::dvec4(p, 1.0)) - mesh.origin) <= mesh.diagonal))
         throw std::invalid_argument("object '" + m.name + "' reaches beyond the scene the solver was made " +
                                     "for; it needs a new Solver");
+  check_patch_budget(mesh, more.meshes, settings);
   scene.materials = std::move(next.materials);
   // Lamps come dark, and light up as a lamp's change of strength.
   for (const Lamp& l : more.lamps) {

@@ -219,15 +219,45 @@ PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
     double d = glm::length(hi - lo);
     pm.diagonal = d > 0 ? d : 1.0;
   }
+  check_patch_budget(pm, scene.meshes, settings);
   for (const MeshDesc& mesh : scene.meshes) add_object(pm, mesh, scene.materials, settings);
   return pm;
 }
 
+namespace {
+
+int bilinear_levels_in(const PatchMesh& pm, const MeshDesc& mesh, const Settings& settings) {
+  return bilinear_level(mesh, mesh.patch_size > 0 ? mesh.patch_size : settings.patch_size_relative * pm.diagonal);
+}
+
+}  // namespace
+
+void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes, const Settings& settings) {
+  long long total = (long long)pm.patches.size(), largest = -1;
+  const MeshDesc* worst = nullptr;
+  for (const MeshDesc& mesh : meshes) {
+    long long n = quad_count(mesh, bilinear_levels_in(pm, mesh, settings));
+    total += n;
+    if (n > largest) largest = n, worst = &mesh;
+  }
+  if (total <= settings.max_patches) return;
+  int level = refinement_level(*worst, bilinear_levels_in(pm, *worst, settings));
+  throw std::invalid_argument(
+      "the scene would refine to " + std::to_string(total) + " patches, past the limit of " +
+      std::to_string(settings.max_patches) + " (about 2.3 KB each, solved); object '" + worst->name + "' alone makes " +
+      std::to_string(largest) + " (" + std::to_string(worst->face_sizes.size()) +
+      (worst->face_sizes.size() == 1 ? " face" : " faces") +
+      (worst->refine == Refinement::CatmullClark
+           ? " at subdivision level " + std::to_string(level) + ": lower the level)"
+           : ", each split in four " + std::to_string(level) +
+                 " times to bring the object's longest edge down to the patch size: raise the patch size, or "
+                 "give the long faces an object of their own)"));
+}
+
 void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
                 const Settings& settings) {
-  double patch_size = mesh.patch_size > 0 ? mesh.patch_size : settings.patch_size_relative * pm.diagonal;
   ObjectPatches obj;
-  obj.level = bilinear_level(mesh, patch_size);
+  obj.level = bilinear_levels_in(pm, mesh, settings);
   RefinedMesh refined = refine_mesh(mesh, obj.level);
   obj.patch_begin = int(pm.patches.size());
   obj.vertex_begin = int(pm.vertices.size());

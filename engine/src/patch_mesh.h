@@ -64,6 +64,9 @@ struct PatchMesh {
 };
 
 PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings);
+// Refuses (std::invalid_argument, naming the largest) `meshes` that would take `pm` past
+// Settings::max_patches; build_patch_mesh checks the whole scene before it refines anything.
+void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes, const Settings& settings);
 // Appends one more object (the next index), in the frame and at the sizes `pm` was built with.
 void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
                 const Settings& settings);

@@ -108,13 +108,29 @@ int bilinear_level(const MeshDesc& mesh, double patch_size) {
   return std::min(kMaxLevel, int(std::ceil(std::log2(longest / patch_size))));
 }
 
-RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
+int refinement_level(const MeshDesc& mesh, int bilinear_levels) {
   bool smooth = mesh.refine == Refinement::CatmullClark && mesh.level > 0;
   int level = smooth ? std::min(mesh.level, kMaxLevel)
               : mesh.refine == Refinement::Bilinear ? bilinear_levels
                                                     : 0;
   // n-gons need one bilinear step to become quads.
   if (level == 0 && !all_quads_or_triangles(mesh)) level = 1;
+  return level;
+}
+
+long long quad_count(const MeshDesc& mesh, int bilinear_levels) {
+  int level = refinement_level(mesh, bilinear_levels);
+  if (level == 0) return (long long)mesh.face_sizes.size();
+  // The first level splits an n-gon into n quads (a quad into 4); every later one splits each in 4.
+  long long after_first = 1LL << (2 * (level - 1));
+  long long count = 0;
+  for (int n : mesh.face_sizes) count += n * after_first;
+  return count;
+}
+
+RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
+  int level = refinement_level(mesh, bilinear_levels);
+  bool smooth = mesh.refine == Refinement::CatmullClark && mesh.level > 0;
   if (level == 0) return copy_faces(mesh);
 
   Far::TopologyDescriptor desc;

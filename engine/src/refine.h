@@ -26,5 +26,8 @@ int bilinear_level(const MeshDesc& mesh, double patch_size);
 
 // `bilinear_levels` applies to Refinement::Bilinear; Catmull-Clark uses mesh.level.
 RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels);
+// The levels refine_mesh applies, and the quads it makes, worked out without refining.
+int refinement_level(const MeshDesc& mesh, int bilinear_levels);
+long long quad_count(const MeshDesc& mesh, int bilinear_levels);
 
 }  // namespace radiosity

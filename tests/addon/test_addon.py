@@ -182,6 +182,17 @@ def test_nan_vertex_is_reported(addon):
     assert ob.data.color_attributes.get("Radiosity") is None
 
 
+def test_a_scene_past_the_patch_limit_is_reported_and_keeps_its_colours(addon):
+    scene, ob = empty_with_plane()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    before = colours(ob).copy()
+    scene.radiosity.max_patches = 1000
+    scene.radiosity.patch_size_relative = 1e-3
+    with pytest.raises(RuntimeError, match="past the limit of 1000.*object 'Plane'"):
+        bpy.ops.radiosity.bake()
+    np.testing.assert_array_equal(colours(ob), before)
+
+
 def test_no_lights_is_reported(addon):
     scene, ob = empty_with_plane(light=False)
     assert bpy.ops.radiosity.bake() == {'FINISHED'}

@@ -247,6 +247,62 @@ def test_bad_input_raises_value_error():
         engine.Solver(scene)
 
 
+def mixed_faces(material, light):
+    """A triangle, a quad and a pentagon side by side (1 m each) under an emitting quad."""
+    m = Mesh()
+    m.add_face([(0, 0, 0), (1, 0, 0), (0.5, 1, 0)], material)
+    m.add_face([(1, 0, 0), (2, 0, 0), (2, 1, 0), (1, 1, 0)], material)
+    m.add_face([(2, 0, 0), (3, 0, 0), (3.3, 0.6, 0), (2.5, 1, 0), (2, 0.6, 0)], material)
+    lamp = Mesh()
+    lamp.add_face([(0, 0, 2), (0, 1, 2), (3, 1, 2), (3, 0, 2)], light)
+    return m, lamp
+
+
+@pytest.mark.parametrize("refine, level", [("bilinear", 0), ("bilinear", 1), ("bilinear", 3),
+                                           ("catmull_clark", 2)])
+def test_a_scene_past_the_patch_limit_is_refused_before_it_is_refined(refine, level):
+    """The limit is checked on a count worked out from the faces; it must be the refiner's own count,
+    exactly: faces at level 0 (a triangle as one quad), else n * 4^(level - 1) per n-gon, a quad 4^level.
+    The pentagon needs a level to become quads. The lamp's one quad always stays one patch."""
+    scene = engine.Scene()
+    grey, light = scene.add_material((0.5, 0.5, 0.5)), scene.add_material((0.5, 0.5, 0.5), (1, 1, 1))
+    faces, lamp = mixed_faces(grey, light)
+    patch = 1.2 / 2 ** level if refine == "bilinear" else 0.0   # the longest edge is 1.166 m
+    faces.add_to(scene, refine=refine, level=level, patch_size=patch, name="Faces")
+    lamp.add_to(scene, name="Lamp", patch_size=10.0)
+    levels = max(level, 1)
+    expected = 1 + sum(n * 4 ** (levels - 1) for n in (3, 4, 5))
+    settings = engine.Settings.preset("draft")
+    settings.max_patches = expected
+    solver = engine.Solver(scene, settings)
+    assert solver.stats["patches"] == expected
+    settings.max_patches = expected - 1
+    with pytest.raises(ValueError, match=f"refine to {expected} patches.*object 'Faces' alone makes {expected - 1}"):
+        engine.Solver(scene, settings)
+
+
+def test_an_addition_past_the_patch_limit_is_refused_whole():
+    scene = engine.Scene()
+    grey, light = scene.add_material((0.5, 0.5, 0.5)), scene.add_material((0.5, 0.5, 0.5), (1, 1, 1))
+    faces, lamp = mixed_faces(grey, light)
+    faces.add_to(scene, refine="bilinear", patch_size=0.3, name="Faces")
+    lamp.add_to(scene, name="Lamp", patch_size=10.0)
+    settings = engine.Settings.preset("draft")
+    settings.max_patches = 200
+    solver = engine.Solver(scene, settings)
+    solver.solve()
+    patches, before = solver.stats["patches"], solver.corner_radiance(0)
+    more = engine.Scene()
+    floor = Mesh()
+    floor.add_face([(0, -1, -0.1), (3, -1, -0.1), (3, 2, -0.1), (0, 2, -0.1)], 0)
+    floor.add_to(more, refine="bilinear", patch_size=0.1, name="Floor")    # 32 x 32 patches
+    with pytest.raises(ValueError, match="past the limit of 200.*object 'Floor'"):
+        solver.add(more)
+    solver.update()
+    assert solver.stats["patches"] == patches
+    assert np.array_equal(solver.corner_radiance(0), before)
+
+
 @pytest.mark.parametrize("level", [1, 2])
 def test_a_smooth_mesh_whose_faces_disagree_on_the_front_stays_finite(level):
     # Found by fuzzing: a triangle and two quads, two of them naming a shared edge in the same
