@@ -76,6 +76,9 @@ ReceiverGroups group_receivers(const PatchMesh& mesh, const ClusterTree& tree, d
   return g;
 }
 
+const Source& source_ref(const Source& s) { return s; }
+const Source& source_ref(const Source* s) { return *s; }
+
 }  // namespace
 
 const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
@@ -351,9 +354,9 @@ Zone Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   auto on_object = [&](int i) { return i >= o.point_begin && i < o.point_end; };
   auto elsewhere = [&](int i) { return !on_object(i); };
   auto plain = [this] { return delta_batch(); };
-  auto gather_from = [](const std::vector<Source>& sources) {
+  auto gather_from = [](const auto& sources) {  // of Source or of const Source*
     return [&sources](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
-      for (const Source& s : sources) s.gather(i, p, batch);
+      for (const auto& s : sources) source_ref(s).gather(i, p, batch);
     };
   };
   auto sources_of = [&](double sign, const std::vector<char>* only) {
@@ -389,6 +392,7 @@ Zone Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   // The changed-ray gathers below use sources made before the move, which name shooters by their
   // index in the cut of then.
   std::vector<char> own_before = own;
+  std::vector<int> shooters_before = shooters;
   place(object, m, refined);
   flag_shooters();
   if (tree.object_root[object] >= 0) forget_nodes(tree.object_root[object]);
@@ -459,7 +463,22 @@ Zone Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
     touched[i] = 1;
   }
   apply_delta(Light::direct);
-  gather_all(on_object, plain, gather_from(reflected_sources(1.0, nullptr)), kWhole);
+  // Reflected light as reflected_sources() would send it now, in its order (each sum takes its
+  // terms as it would): a shooter neither on the object nor near it sends what it sent before the
+  // move (its shot is made of what did not move, and of what its samples saw of themselves, which
+  // the move left standing), so its shot made then serves.
+  std::vector<char> changed(shooters.size());
+  for (size_t s = 0; s < shooters.size(); ++s) changed[s] = own[s] || near[s];
+  std::vector<Source> remade = reflected_sources(1.0, &changed);
+  std::vector<const Source*> kept(tree.nodes.size(), nullptr), reflected_now;
+  for (const Source& b : others_reflected) kept[shooters_before[b.shooter]] = &b;
+  auto next = remade.begin();
+  for (size_t s = 0; s < shooters.size(); ++s)
+    if (!changed[s] && kept[shooters[s]])
+      reflected_now.push_back(kept[shooters[s]]);
+    else if (changed[s] && next != remade.end() && next->shooter == int(s))
+      reflected_now.push_back(&*next++);
+  gather_all(on_object, plain, gather_from(reflected_now), kWhole);
   for (int i = o.point_begin; i < o.point_end; ++i) {
     delta_front[i] -= reflected_front[i];
     delta_back[i] -= reflected_back[i];

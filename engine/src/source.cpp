@@ -37,10 +37,13 @@ void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& ba
 // passes through a sphere only if one from x passes through that sphere grown by the group's
 // radius, to a target grown as much.
 bool Source::may_reach(const Sphere& receivers, const Zone& zone) const {
+  if (kind == Kind::World) return true;  // rays leave every point in every direction
   const dvec3& x = receivers.centre;
   double grow = receivers.radius;
-  Zone grown{{zone.before.centre, zone.before.radius + grow}, {zone.after.centre, zone.after.radius + grow}};
-  if (kind == Kind::World) return true;  // rays leave every point in every direction
+  // Asked about each receiving point (grow 0) of each pair a gather takes: the zone as it is, whose
+  // enclosing sphere, worked out anew, cost a square root and a division each time.
+  Zone grown = grow == 0 ? zone
+                         : Zone{{zone.before.centre, zone.before.radius + grow}, {zone.after.centre, zone.after.radius + grow}};
   if (kind == Kind::Lamp && lamp.type == Lamp::Type::Sun)
     return sun_may_cross(lamp, x, grown.before) || sun_may_cross(lamp, x, grown.after);
   return grown.may_cross(x, {bounds.centre, bounds.radius + grow});

@@ -213,22 +213,32 @@ void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, c
 }
 
 unsigned OcclusionBatch::keep_changed() {
-  RTCRay before[kCapacity], now[kCapacity];
-  std::copy(rays_, rays_ + count_, before);
-  std::copy(rays_, rays_ + count_, now);
-  vis_.occluded_by(changed_object_, true, before, count_);
-  vis_.occluded_by(changed_object_, false, now, count_);
+  // A ray the object's sphere of one place does not reach, the object there cannot block: each ray
+  // is traced against the places it passes near, not against both.
+  bool blocked[2][kCapacity];
+  for (int place = 0; place < 2; ++place) {
+    const Sphere& bounds = place == 0 ? zone_->before : zone_->after;
+    RTCRay near[kCapacity];
+    unsigned which[kCapacity], count = 0;
+    for (unsigned i = 0; i < count_; ++i) {
+      const RTCRay& r = rays_[i];
+      blocked[place][i] = false;
+      if (ray_crosses(dvec3(r.org_x, r.org_y, r.org_z), dvec3(r.dir_x, r.dir_y, r.dir_z), r.tfar, bounds))
+        near[count] = r, which[count++] = i;
+    }
+    vis_.occluded_by(changed_object_, place == 0, near, count);
+    for (unsigned k = 0; k < count; ++k) blocked[place][which[k]] = near[k].tfar < 0;
+    traced_ += count;
+  }
   unsigned kept = 0;
   for (unsigned i = 0; i < count_; ++i) {
-    bool blocked_before = before[i].tfar < 0, blocked_now = now[i].tfar < 0;
-    if (blocked_before == blocked_now) continue;
-    double sign = blocked_before ? 1.0 : -1.0;
+    if (blocked[0][i] == blocked[1][i]) continue;
+    double sign = blocked[0][i] ? 1.0 : -1.0;
     rays_[kept] = rays_[i];
     into_[kept] = into_[i];
     carried_[kept] = sign * carried_[i];
     ++kept;
   }
-  traced_ += 2 * count_;
   return kept;
 }
 
