@@ -1,0 +1,145 @@
+"""Pictures of what the add-on bakes, beside Cycles' render of the same camera: the README's figure.
+
+    blender -b --factory-startup --python bench/pictures.py [-- OUT.png [SPP]]
+
+For each sample scene (the animated room at its first frame, baked, and at its last, where Live
+Update took it incrementally), three pictures from the scene camera, Standard view transform:
+- the default preset's `Radiosity` attribute as Workbench shows it (flat: the colours as stored).
+  It holds a value per corner of the user's mesh, as Cycles' vertex bake does, and Blender
+  interpolates it across each face: a room of six quads shows its corners' light only;
+- the solver's own patches (Solver.refined), what the attribute would show on a mesh that fine;
+- Cycles' path-traced render (SPP samples, DESIGN.md section 4 settings): per pixel, noisy.
+Writes bench/results/pictures.png.
+"""
+import os
+import sys
+import tempfile
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(ROOT, "tests", "addon"))
+from plot_png import Canvas  # noqa: E402
+from conftest import load_package  # noqa: E402
+
+args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+OUT = args[0] if args else os.path.join(HERE, "results", "pictures.png")
+SPP = int(args[1]) if len(args) > 1 else 1024
+SIZE = 200
+SHOTS = [("cornell_box", None), ("subsurf_room", None), ("animated_room", 1), ("animated_room", 24)]
+
+
+def rendered(scene, engine):
+    """(SIZE, SIZE, 3) uint8 picture from the scene camera."""
+    scene.render.engine = engine
+    scene.view_settings.view_transform = 'Standard'
+    scene.render.resolution_x = scene.render.resolution_y = SIZE
+    scene.render.resolution_percentage = 100
+    path = os.path.join(tempfile.mkdtemp(), "shot.png")
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    img = bpy.data.images.load(path)
+    px = np.empty(SIZE * SIZE * 4, np.float32)
+    img.pixels.foreach_get(px)
+    bpy.data.images.remove(img)
+    rgb = px.reshape(SIZE, SIZE, 4)[::-1, :, :3]   # Blender's rows run bottom to top
+    return np.clip(rgb * 255 + 0.5, 0, 255).astype(np.uint8)
+
+
+def ours(scene):
+    """Workbench showing the baked attribute as stored."""
+    for ob in scene.objects:
+        if ob.type == 'MESH' and "Radiosity" in ob.data.color_attributes:
+            ob.data.color_attributes.active_color = ob.data.color_attributes["Radiosity"]
+    shading = scene.display.shading
+    shading.light = 'FLAT'
+    shading.color_type = 'VERTEX'
+    return rendered(scene, 'BLENDER_WORKBENCH')
+
+
+def patches(scene):
+    """Workbench showing the live solver's patches, coloured as solved, in place of the meshes."""
+    job = load_package().live_update.live_jobs[scene.name]
+    shown = [ob for ob in scene.objects if ob.type == 'MESH' and not ob.hide_render]
+    made = []
+    live = scene.radiosity.live_update
+    scene.radiosity.live_update = False   # else it would light these meshes, their originals hidden
+    for ob in shown:
+        pos, rad = job.solver.refined(job.ids[ob.name])
+        me = bpy.data.meshes.new(ob.name + " patches")
+        me.vertices.add(len(pos))
+        me.vertices.foreach_set("co", np.asarray(pos, np.float32).ravel())
+        me.loops.add(len(pos))
+        me.loops.foreach_set("vertex_index", np.arange(len(pos), dtype=np.int32))
+        me.polygons.add(len(pos) // 4)
+        me.polygons.foreach_set("loop_start", np.arange(0, len(pos), 4, dtype=np.int32))
+        me.polygons.foreach_set("loop_total", np.full(len(pos) // 4, 4, np.int32))
+        me.update()
+        colour = me.color_attributes.new("Solved", 'FLOAT_COLOR', 'CORNER')
+        rgba = np.ones((len(pos), 4), np.float32)
+        rgba[:, :3] = rad
+        colour.data.foreach_set("color", rgba.ravel())
+        me.color_attributes.active_color = colour
+        made.append(bpy.data.objects.new(me.name, me))
+        scene.collection.objects.link(made[-1])
+        ob.hide_render = True
+    try:
+        return ours(scene)
+    finally:
+        for ob in shown:
+            ob.hide_render = False
+        for ob in made:
+            bpy.data.meshes.remove(ob.data)
+        scene.radiosity.live_update = live
+
+
+def cycles(scene):
+    c = scene.cycles
+    c.device = 'CPU'
+    c.samples = SPP
+    c.use_denoising = False
+    c.use_adaptive_sampling = False
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.max_bounces = c.diffuse_bounces = 64
+    return rendered(scene, 'CYCLES')
+
+
+def main():
+    load_package().register()   # the add-on from this source tree, its engine from build/engine
+    tiles = []
+    baked = None
+    for name, frame in SHOTS:
+        if baked != name:
+            bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_blends", name + ".blend"))
+            scene = bpy.context.scene
+            scene.radiosity.preset = 'DEFAULT'
+            if frame is not None:
+                scene.frame_set(frame)
+            assert bpy.ops.radiosity.bake() == {'FINISHED'}
+            scene.radiosity.live_update = True
+            baked = name
+        else:                       # live update: an incremental update of the solver from the bake
+            scene.frame_set(frame)
+            assert load_package().live_update.last_sync[scene.name]["mode"] == "incremental"
+        label = name.replace("_", " ") + (f", frame {frame}" if frame is not None else "")
+        tiles.append((label, [(ours(scene), "ours: the attribute"), (patches(scene), "ours: the patches"),
+                              (cycles(scene), f"Cycles, {SPP} spp")]))
+        print(label, "done", flush=True)
+    pad, top = 12, 34
+    c = Canvas(3 * SIZE + 4 * pad, len(tiles) * (SIZE + top + pad) + pad)
+    for i, (label, pictures) in enumerate(tiles):
+        y = pad + i * (SIZE + top + pad)
+        c.text(pad, y, label, (0, 0, 0), 2)
+        for j, (img, caption) in enumerate(pictures):
+            x = pad + j * (SIZE + pad)
+            c.img[y + top - 6:y + top - 6 + SIZE, x:x + SIZE] = img
+            c.text(x, y + 18, caption, (70, 70, 70), 1)
+    os.makedirs(os.path.dirname(OUT), exist_ok=True)
+    c.save(OUT)
+    print("wrote", OUT)
+
+
+main()
