@@ -89,6 +89,9 @@ RefinedMesh copy_faces(const MeshDesc& mesh) {
   return out;
 }
 
+// Whether refine_mesh takes the mesh to its Catmull-Clark limit surface (else splits it bilinearly).
+bool to_limit_surface(const MeshDesc& mesh) { return mesh.refine == Refinement::CatmullClark && mesh.level > 0; }
+
 }  // namespace
 
 int bilinear_level(const MeshDesc& mesh, double patch_size) {
@@ -109,8 +112,7 @@ int bilinear_level(const MeshDesc& mesh, double patch_size) {
 }
 
 int refinement_level(const MeshDesc& mesh, int bilinear_levels) {
-  bool smooth = mesh.refine == Refinement::CatmullClark && mesh.level > 0;
-  int level = smooth ? std::min(mesh.level, kMaxLevel)
+  int level = to_limit_surface(mesh) ? std::min(mesh.level, kMaxLevel)
               : mesh.refine == Refinement::Bilinear ? bilinear_levels
                                                     : 0;
   // n-gons need one bilinear step to become quads.
@@ -130,7 +132,7 @@ long long quad_count(const MeshDesc& mesh, int bilinear_levels) {
 
 RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
   int level = refinement_level(mesh, bilinear_levels);
-  bool smooth = mesh.refine == Refinement::CatmullClark && mesh.level > 0;
+  bool smooth = to_limit_surface(mesh);
   if (level == 0) return copy_faces(mesh);
 
   Far::TopologyDescriptor desc;
