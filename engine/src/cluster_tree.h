@@ -3,6 +3,7 @@
 // exact patch cells near the receiver, so a shot costs about the same whatever the mesh density.
 #pragma once
 
+#include "bounds.h"
 #include "patch_mesh.h"
 #include "radiosity/form_factor.h"
 
@@ -30,6 +31,7 @@ struct ClusterNode {
   double radius = 0.0;       // bounding sphere around the centroid
   Symmetric3 spread;         // second moment of its area about the centroid, per unit area
   bool flat = false;         // normals agree well enough for the cluster to act as one sample
+  Plane plane;               // of its patches, if they lie in one to a 1e-9 part of its radius
 };
 
 struct ClusterTree {

@@ -225,6 +225,7 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
   if (far_samples < samples) frontier = frontier_of(tree, node, std::max(1, far_samples));
 
   Shot shot;
+  shot.plane = tree.nodes[node].plane;
   // Sized up front: growing them copied every element and cell already built, several times a shot.
   const ClusterNode& root = tree.nodes[node];
   shot.elements.reserve(2 * (root.end - root.begin) - 1);
@@ -313,6 +314,7 @@ std::optional<Shot> difference(const Shot& after, const Shot& before) {
   d.split_radii = b.split_radii;
   d.split_depth = b.split_depth;
   d.reflected = b.reflected;
+  d.plane = b.plane;
   // The patches as after, then as before, negative. Their own views cancel: the radiance is the same.
   int count = int(b.patches.size());
   d.patches = b.patches;
@@ -551,6 +553,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
                           const Zone* zone) {
   const dvec3& x = point.position;
   const dvec3& n = point.normal;
+  if (shot.plane.edge_on(x, n)) return;
   int stack[128];
   int top = 0;
   if (shot.reflected) batch.set_share(point.reflected_share);

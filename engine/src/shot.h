@@ -92,6 +92,9 @@ struct Shot {
   // Light that surfaces reflected (not emitted): a receiver takes its reflected_share of what
   // comes from beyond the patches it lies on.
   bool reflected = false;
+  // The shooter's (ClusterNode::plane): on a wall or floor a tenth or more of the receivers lie in
+  // it, and walked the shot's nearest, most finely split part for nothing.
+  Plane plane;
 };
 
 // What shot samples see of their own shooter, per side: cell centre to patch corners (a bit each),
