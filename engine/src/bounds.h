@@ -4,25 +4,12 @@
 #include "radiosity/scene.h"
 
 #include <algorithm>
-#include <cmath>
 
 namespace radiosity {
 
 struct Sphere {
   dvec3 centre{0.0};
   double radius = 0.0;
-};
-
-// The plane a set of flat patches lies in, to `tolerance`; a zero normal for none.
-struct Plane {
-  dvec3 point{0.0}, normal{0.0};
-  double tolerance = 0.0;
-  // Whether a point at x facing n (either way) lies in it: it sees those patches edge-on, and
-  // gets nothing from them.
-  bool edge_on(const dvec3& x, const dvec3& n) const {
-    return normal != dvec3(0.0) && std::fabs(glm::dot(normal, x - point)) <= tolerance &&
-           glm::length(glm::cross(normal, n)) <= 1e-9;
-  }
 };
 
 inline bool overlap(const Sphere& a, const Sphere& b) {

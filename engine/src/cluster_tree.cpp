@@ -11,7 +11,6 @@ namespace {
 // its middle to its rim. At 0.95 (26 degrees) the members a receiver sees edge-on counted against
 // the rest, and a Catmull-Clark cube's far clusters sent its surroundings 3% too little.
 constexpr double kFlat = 0.99;
-constexpr double kPlanar = 1e-9;  // of a cluster's radius: ClusterNode::plane
 
 // How far inside its patch, in (u, v), an aim point stays. On a patch's edge it can lie on a
 // junction: aimed at the foot of a wall from the far side, a ray ran along the next surface
@@ -86,12 +85,11 @@ struct Builder {
     node.aim_lift = bilinear_bulge(corners, anchor.normal);
     node.flat = glm::length(node.vector_area) >= kFlat * node.area;
     if (node.flat) {
-      Plane plane{node.centroid, glm::normalize(node.vector_area), kPlanar * node.radius};
-      bool in = true;
-      for (int i = begin; i < end && in; ++i)
+      dvec3 normal = glm::normalize(node.vector_area);
+      node.planar = true;
+      for (int i = begin; i < end && node.planar; ++i)
         for (int v : mesh.patches[tree.order[i]].vertex)
-          in &= std::fabs(glm::dot(plane.normal, mesh.vertices[v] - plane.point)) <= plane.tolerance;
-      if (in) node.plane = plane;
+          node.planar &= std::fabs(glm::dot(normal, mesh.vertices[v] - node.centroid)) <= kPlanar * node.radius;
     }
     if (node.area > 0) node.spread = node.left < 0 ? patch_spread(tree.order[begin], node.centroid) : merged_spread(node);
   }

@@ -3,10 +3,10 @@
 // exact patch cells near the receiver, so a shot costs about the same whatever the mesh density.
 #pragma once
 
-#include "bounds.h"
 #include "patch_mesh.h"
 #include "radiosity/form_factor.h"
 
+#include <cmath>
 #include <vector>
 
 namespace radiosity {
@@ -31,8 +31,18 @@ struct ClusterNode {
   double radius = 0.0;       // bounding sphere around the centroid
   Symmetric3 spread;         // second moment of its area about the centroid, per unit area
   bool flat = false;         // normals agree well enough for the cluster to act as one sample
-  Plane plane;               // of its patches, if they lie in one to a 1e-9 part of its radius
+  // Its patches lie in its plane (through the centroid, across vector_area) to a kPlanar part of
+  // its radius.
+  bool planar = false;
 };
+
+constexpr double kPlanar = 1e-9;
+
+// Whether a point at x facing n (either way) lies in the plane of a planar cluster (centroid c, unit
+// normal m, radius r): it sees every patch of it edge-on, and gets nothing from it.
+inline bool edge_on(const dvec3& c, const dvec3& m, double r, const dvec3& x, const dvec3& n) {
+  return std::fabs(glm::dot(m, x - c)) <= kPlanar * r && glm::length(glm::cross(m, n)) <= kPlanar;
+}
 
 struct ClusterTree {
   std::vector<int> order;  // patch indices; a node's patches are contiguous

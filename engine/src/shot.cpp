@@ -77,6 +77,7 @@ struct ShotBuilder {
     e.projected_area = glm::length(n.vector_area);
     e.normal = e.projected_area > 0 ? n.vector_area / e.projected_area : dvec3(0.0);
     e.radius = n.radius;
+    e.planar = n.planar;
     if (n.flat) {
       e.far2 = near_factor * near_factor * n.radius * n.radius;
       e.spread = n.spread.in_plane(e.normal);
@@ -225,7 +226,6 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
   if (far_samples < samples) frontier = frontier_of(tree, node, std::max(1, far_samples));
 
   Shot shot;
-  shot.plane = tree.nodes[node].plane;
   // Sized up front: growing them copied every element and cell already built, several times a shot.
   const ClusterNode& root = tree.nodes[node];
   shot.elements.reserve(2 * (root.end - root.begin) - 1);
@@ -314,7 +314,6 @@ std::optional<Shot> difference(const Shot& after, const Shot& before) {
   d.split_radii = b.split_radii;
   d.split_depth = b.split_depth;
   d.reflected = b.reflected;
-  d.plane = b.plane;
   // The patches as after, then as before, negative. Their own views cancel: the radiance is the same.
   int count = int(b.patches.size());
   d.patches = b.patches;
@@ -553,15 +552,18 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
                           const Zone* zone) {
   const dvec3& x = point.position;
   const dvec3& n = point.normal;
-  if (shot.plane.edge_on(x, n)) return;
   int stack[128];
   int top = 0;
+  if (!shot.elements.empty() && shot.elements[0].planar &&
+      edge_on(shot.elements[0].centroid, shot.elements[0].normal, shot.elements[0].radius, x, n))
+    return;  // all of it: elements[0] is the shooter's whole cluster
   if (shot.reflected) batch.set_share(point.reflected_share);
   // The subtree of a frontier element, one element at a time.
   auto walk = [&](int from) __attribute__((always_inline)) {
     stack[top++] = from;
     while (top > 0) {
       const ShotElement& e = shot.elements[stack[--top]];
+      if (e.planar && edge_on(e.centroid, e.normal, e.radius, x, n)) continue;
       if (e.left < 0) {
         if (e.cell_begin == e.cell_end) continue;
         // A leaf holds one patch's cells (or an area lamp's quads, which no point lies on).

@@ -65,6 +65,9 @@ struct ShotElement {
   dvec3 anchor{0.0};  // where its far sample's ray aims (ClusterNode::aim)
   double anchor_lift = 0.0;  // ClusterNode::aim_lift
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
+  // ClusterNode::planar. On a wall or floor, a receiver's walk reached the patches round it in its
+  // own plane and split them finely, for rays that came to nothing.
+  bool planar = false;
 };
 
 // Four elements of a shot's frontier side by side, what decides whether and how each is one far
@@ -92,9 +95,6 @@ struct Shot {
   // Light that surfaces reflected (not emitted): a receiver takes its reflected_share of what
   // comes from beyond the patches it lies on.
   bool reflected = false;
-  // The shooter's (ClusterNode::plane): on a wall or floor a tenth or more of the receivers lie in
-  // it, and walked the shot's nearest, most finely split part for nothing.
-  Plane plane;
 };
 
 // What shot samples see of their own shooter, per side: cell centre to patch corners (a bit each),
