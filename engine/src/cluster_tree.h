@@ -40,7 +40,7 @@ constexpr double kPlanar = 1e-9;
 
 // Whether a point at x facing n (either way) lies in the plane of a planar cluster (centroid c, unit
 // normal m, radius r): it sees every patch of it edge-on, and gets nothing from it.
-inline bool edge_on(const dvec3& c, const dvec3& m, double r, const dvec3& x, const dvec3& n) {
+__attribute__((always_inline)) inline bool edge_on(const dvec3& c, const dvec3& m, double r, const dvec3& x, const dvec3& n) {
   return std::fabs(glm::dot(m, x - c)) <= kPlanar * r && glm::length(glm::cross(m, n)) <= kPlanar;
 }
 
