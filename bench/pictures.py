@@ -22,8 +22,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(ROOT, "tests", "addon"))
+sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
 from plot_png import Canvas  # noqa: E402
 from conftest import load_package  # noqa: E402
+import cycles_settings  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 OUT = args[0] if args else os.path.join(HERE, "results", "pictures.png")
@@ -97,13 +99,7 @@ def patches(scene):
 
 
 def cycles(scene):
-    c = scene.cycles
-    c.device = 'CPU'
-    c.samples = SPP
-    c.use_denoising = False
-    c.use_adaptive_sampling = False
-    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
-    c.max_bounces = c.diffuse_bounces = 64
+    cycles_settings.unbiased(scene, SPP, 64, 1)   # seed 1, as the accuracy bench's Cycles rows
     return rendered(scene, 'CYCLES')
 
 
