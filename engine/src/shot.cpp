@@ -554,16 +554,17 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
   const dvec3& n = point.normal;
   int stack[128];
   int top = 0;
-  if (!shot.elements.empty() && shot.elements[0].planar &&
-      edge_on(shot.elements[0].centroid, shot.elements[0].normal, shot.elements[0].radius, x, n))
-    return;  // all of it: elements[0] is the shooter's whole cluster
+  auto seen_edge_on = [&](const ShotElement& e) __attribute__((always_inline)) {
+    return e.planar && edge_on(e.centroid, e.normal, e.radius, x, n);
+  };
+  if (!shot.elements.empty() && seen_edge_on(shot.elements[0])) return;  // the shooter's whole cluster
   if (shot.reflected) batch.set_share(point.reflected_share);
   // The subtree of a frontier element, one element at a time.
   auto walk = [&](int from) __attribute__((always_inline)) {
     stack[top++] = from;
     while (top > 0) {
       const ShotElement& e = shot.elements[stack[--top]];
-      if (e.planar && edge_on(e.centroid, e.normal, e.radius, x, n)) continue;
+      if (seen_edge_on(e)) continue;
       if (e.left < 0) {
         if (e.cell_begin == e.cell_end) continue;
         // A leaf holds one patch's cells (or an area lamp's quads, which no point lies on).
