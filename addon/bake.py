@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from . import export as exporter
+from . import texture
 
 ENGINE_PRESETS = ("draft", "default", "high", "reference")
 
@@ -250,9 +251,10 @@ class BakeJob:
     change (an object added beyond the scene's size), or what base's Solver keeps of deleted and
     replaced objects outweighs the scene (outgrown), it builds a new Solver and solves the whole scene
     (`rebuild_reason` says why). `base` must not be used afterwards: its Solver now holds this job's
-    scene."""
+    scene. `images`: the texture.Images of an earlier job whose images this frame shares (a frame
+    change with no edit between: what was sampled from them is not read again); None: read anew."""
 
-    def __init__(self, scene, depsgraph, props=None, preset=None, engine=None, base=None):
+    def __init__(self, scene, depsgraph, props=None, preset=None, engine=None, base=None, images=None):
         self.engine = engine or load_engine()
         self.warnings = []
         self.frame = scene.frame_current
@@ -273,7 +275,8 @@ class BakeJob:
         edit = _edit_mode_objects(scene)
         if edit:
             raise BakeError(f"object '{edit[0]}' is in Edit Mode: switch to Object Mode before baking")
-        sx = exporter.export_scene(depsgraph)
+        self.images = texture.Images() if images is None else images
+        sx = exporter.export_scene(depsgraph, images=self.images)
         self.export = self.exported = sx
         if not sx.visible_meshes:
             raise BakeError("nothing to bake: the scene has no visible mesh objects")

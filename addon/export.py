@@ -210,9 +210,9 @@ def _output_node(tree, types=('OUTPUT_MATERIAL',)):
 
 
 def material_values(mat, images=None):
-    """MaterialExport for a bpy Material (or None: Cycles' default grey diffuse). `images`: pixels
-    already read in this export (texture.corner_colours)."""
-    images = {} if images is None else images
+    """MaterialExport for a bpy Material (or None: Cycles' default grey diffuse). `images`: the
+    export's texture.Images."""
+    images = colour_texture.Images() if images is None else images
     if mat is None:
         return MaterialExport("<default>", DEFAULT_REFLECTANCE, (0.0, 0.0, 0.0))
     warnings = []
@@ -365,16 +365,16 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
             by_layer[layer.name] = uv + INSIDE * (middle - uv)
         uv = by_layer[layer.name]
         at = corner_material == i
-        rho[at] = colour_texture.corner_colours(tex, uv[at], images)
+        rho[at] = colour_texture.corner_colours(tex, uv[at], images, (label, materials[i].name))
     return _below_one(rho, f"{label}'s texture colours", warnings)
 
 
 def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_render_levels=True, cage=None,
                 warnings=None, images=None):
     """MeshExport of one evaluated object. `cage`: precomputed cage Mesh (see _cages_by_reevaluation);
-    what it cannot reproduce is appended to `warnings`. `images`: texture pixels read in this export."""
+    what it cannot reproduce is appended to `warnings`. `images`: texture.Images of this export."""
     warnings = [] if warnings is None else warnings
-    images = {} if images is None else images
+    images = colour_texture.Images() if images is None else images
     lut = export_materials_of(ob_eval, registry, materials, images)
     orig = ob_eval.original
     sub = _last_subsurf(orig)
@@ -476,13 +476,16 @@ def _rendered_collections(scene):
     return rendered
 
 
-def export_scene(depsgraph=None, use_render_levels=True):
+def export_scene(depsgraph=None, use_render_levels=True, images=None):
     """Export the evaluated scene. Meshes and lamps hidden from render are exported too (meshes with
-    visible=False, lamps dark()): a Solver built from the export can show them later without a rebuild."""
+    visible=False, lamps dark()): a Solver built from the export can show them later without a rebuild.
+    `images`: a texture.Images that earlier exports of the same images used (other frames of the
+    same scene, no edit between); None: every image read anew."""
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     scene = depsgraph.scene_eval
-    registry, materials, meshes, lights, warnings, images = {}, [], [], [], [], {}
+    registry, materials, meshes, lights, warnings = {}, [], [], [], []
+    images = colour_texture.Images() if images is None else images
     # Collect first: _cages_by_reevaluation re-evaluates the depsgraph, invalidating the iterator.
     items = []
     counts = {}
@@ -519,6 +522,7 @@ def export_scene(depsgraph=None, use_render_levels=True):
             else:
                 lights.append(dark(light_values(ev, M, name)))
     finally:
+        images.end_export()
         for me in cages.values():
             bpy.data.meshes.remove(me)
     for m in materials:

@@ -223,15 +223,18 @@ def frame_budget(scene):
     return scene.render.fps_base / scene.render.fps
 
 
-def _begin(scene, depsgraph):
-    """Export and diff (main thread): (job to solve or None, the base it replaces, info)."""
+def _begin(scene, depsgraph, frame_change=False):
+    """Export and diff (main thread): (job to solve or None, the base it replaces, info). On a frame
+    change the images are the last export's (texture.Images): an edit, painting included, comes
+    through the depsgraph handler, whose exports read them anew."""
     t0 = time.perf_counter()
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     base = live_jobs.get(scene.name)
     info = {"frame": scene.frame_current, "mode": "skipped", "reason": None, "start": t0}
     try:
-        job = bake.BakeJob(scene, depsgraph, scene.radiosity, base=base)
+        images = base.images if frame_change and base is not None else None
+        job = bake.BakeJob(scene, depsgraph, scene.radiosity, base=base, images=images)
     except bake.BakeError as e:
         info["reason"] = str(e)
         return None, base, info
@@ -307,14 +310,14 @@ def finish(scene):
         _state["busy"] = False
 
 
-def sync(scene, depsgraph=None):
+def sync(scene, depsgraph=None, frame_change=False):
     """Bring the scene's live Solver and the colours up to date with the evaluated scene, shooting to
     the threshold. Returns what it did: {"mode": "unchanged" | "incremental" | "full" | "skipped" |
-    "error", ...}."""
+    "error", ...}. `frame_change`: called for one, with no edit since the last (_begin)."""
     finish(scene)
     _state["busy"] = True
     try:
-        job, base, info = _begin(scene, depsgraph)
+        job, base, info = _begin(scene, depsgraph, frame_change)
         if job is not None:
             _solve(job, info)
             info = _end(scene, job, base, info)
@@ -323,7 +326,7 @@ def sync(scene, depsgraph=None):
         _state["busy"] = False
 
 
-def play(scene, depsgraph=None):
+def play(scene, depsgraph=None, frame_change=False):
     """Playback's step (see the module's notes): never waits for the engine. None while an update runs."""
     running = playback.get(scene.name)
     if running is not None and running[0].is_alive():
@@ -331,7 +334,7 @@ def play(scene, depsgraph=None):
     finish(scene)
     _state["busy"] = True
     try:
-        job, base, info = _begin(scene, depsgraph)
+        job, base, info = _begin(scene, depsgraph, frame_change)
         if job is None:
             return _record(scene, info)
         # A new Solver's first solve is not cut short: its first shots carry most of the light.
@@ -444,7 +447,7 @@ def on_frame_change(scene, depsgraph=None):
     if _served_from_cache(scene):
         return
     try:
-        (play if playing() else sync)(scene, depsgraph)
+        (play if playing() else sync)(scene, depsgraph, frame_change=True)
     except Exception as e:   # noqa: BLE001
         print("Radiosity: live update failed:", e)
 

@@ -47,7 +47,9 @@ def prepare_frame(context, frame, animation, base=None):
     scene = context.scene
     if animation and scene.frame_current != frame:
         scene.frame_set(frame)
-    job = bake.BakeJob(scene, context.evaluated_depsgraph_get(), scene.radiosity, base=base)
+    # Frames of one bake share their images: what was sampled from them is not read again.
+    job = bake.BakeJob(scene, context.evaluated_depsgraph_get(), scene.radiosity, base=base,
+                       images=base.images if base is not None else None)
     if base is not None and job.rebuild_reason:
         print(f"Radiosity: frame {frame}: {job.rebuild_reason}; {bake.REBUILD_NOTE}: new solver, full solve")
     return job
