@@ -10,6 +10,7 @@ playback below (default 3). Scenes:
   animated_room  the sample: a box moves and the point lamp ramps 30 W -> 120 W every frame
   room_20k       a 4 m room of ~20k vertices, one 0.4 m box moving across the floor, lamp fixed
   room_10k       the same room at ~10k vertices: does playback with write-back keep 24 fps?
+  room_10k_tex   the same with a 4k image texture on the floor (a generated UV grid)
 
 Incremental = what live update does on a frame change (export, diff, Solver.update(), colours,
 write-back) through the add-on's own handler; "update" is the engine's Solver.update() alone,
@@ -80,9 +81,10 @@ def grid(origin, u, v, nu, nv):
     return verts, quads
 
 
-def room_scene(vertices):
+def room_scene(vertices, texture=0):
     """A 4 x 4 x 3 m room split into quads (about `vertices` vertices), a point lamp under the
-    ceiling and a 0.4 m box crossing the floor over frames 1-24 (linear keys)."""
+    ceiling and a 0.4 m box crossing the floor over frames 1-24 (linear keys); with `texture`, a
+    texture x texture image on the floor's colour, over UVs projected from above."""
     sc = ms.new_scene()
     sc.frame_start, sc.frame_end = 1, 24
     W, H = 4.0, 3.0
@@ -113,6 +115,15 @@ def room_scene(vertices):
     me.polygons.foreach_set("loop_total", np.full(len(faces), 4, np.int32))
     me.materials.append(ms.diffuse("Wall", (0.7, 0.7, 0.7)))
     me.materials.append(ms.diffuse("Floor", (0.5, 0.55, 0.5)))
+    if texture:
+        me.uv_layers.new()
+        me.uv_layers.active.data.foreach_set("uv", ((verts[faces.ravel()][:, :2] + 2) / 4).astype(np.float32).ravel())
+        image = bpy.data.images.new("FloorGrid", texture, texture)
+        image.generated_type = 'UV_GRID'
+        nodes = me.materials[1].node_tree.nodes
+        tex = nodes.new("ShaderNodeTexImage")
+        tex.image = image
+        me.materials[1].node_tree.links.new(tex.outputs["Color"], nodes["Diffuse BSDF"].inputs["Color"])
     me.polygons.foreach_set("material_index", mats.astype(np.int32))
     me.update()
     me.validate()
@@ -270,7 +281,7 @@ def main():
     print(f"Radiosity dynamic update bench: preset {PRESET.lower()}, {FRAMES} frames a scene, "
           f"{FULL_REPEATS} full re-solves a scene; medians; 2 cores (shared)")
     makers = {"animated_room": animated_room, "room_20k": lambda: room_scene(20000),
-              "room_10k": lambda: room_scene(10000)}
+              "room_10k": lambda: room_scene(10000), "room_10k_tex": lambda: room_scene(10000, 4096)}
     rows = [run(name, makers[name]) for name in SCENES]
     table(f"{'scene':14} {'vertices':>8} {'points':>7} {'full s':>8} {'update s':>9} {'ratio':>6} "
           f"{'touched':>8} {'live s':>8} {'write ms':>8} {'frame s':>8} {'fps':>6} {'baked fps':>9}",
