@@ -1,7 +1,8 @@
 """A colour texture on a diffuse or Principled BSDF's colour: found in the node tree, sampled at face
 corners' UVs as Cycles samples it (texel centres at (i + 0.5) / size, Linear or Closest, the node's
 extension; an 8-bit sRGB image interpolated as stored and then made linear, as Cycles keeps such
-images compressed), with numpy over all corners at once.
+images compressed), with numpy over all corners at once. The UVs come from a UV Map node, a
+Texture Coordinate node's UV or the default map, through a Mapping node if there is one.
 
 Cycles reads the texture wherever it shades; the engine gets it at the mesh's face corners and
 interpolates it across each face, as the issue asks ("sampled per vertex"): detail finer than the
@@ -20,6 +21,7 @@ class TextureRef:
     interpolation: str            # the node's: 'Linear', 'Closest', 'Cubic', 'Smart'
     extension: str                # 'REPEAT', 'EXTEND', 'CLIP', 'MIRROR'
     factor: np.ndarray            # (3,) what the BSDF multiplies the colour by (Principled: metal, transmission)
+    mapping: np.ndarray = None    # (3, 4): a Mapping node's affine map of (u, v, 0, 1), or None
 
 
 def image_texture(socket, warnings):
@@ -29,16 +31,63 @@ def image_texture(socket, warnings):
     node = socket.links[0].from_node
     if node.type != 'TEX_IMAGE' or node.image is None:
         return None
-    uv_map = ""
+    uv_map, mapping = "", None
     vector = node.inputs.get("Vector")
-    if vector is not None and vector.is_linked:
-        source = vector.links[0].from_node
+    link = vector.links[0] if vector is not None and vector.is_linked else None
+    if link is not None and link.from_node.type == 'MAPPING':
+        mapping = _mapping(link.from_node, warnings)
+        inner = link.from_node.inputs["Vector"]
+        link = inner.links[0] if inner.is_linked else None
+        if mapping is not None and link is None:   # Cycles maps the point (0, 0, 0): one texel everywhere
+            warnings.append(f"{node.name}: a Mapping node with nothing in its Vector is not followed; "
+                            "the default UV map is used")
+            mapping = None
+    if link is not None:
+        source = link.from_node
         if source.type == 'UVMAP':
             uv_map = source.uv_map
-        else:
-            warnings.append(f"{node.name}: texture coordinates from a {source.type} node are not followed; "
+        elif not (source.type == 'TEX_COORD' and link.from_socket.identifier == 'UV'):
+            what = (f"Texture Coordinate's {link.from_socket.name}" if source.type == 'TEX_COORD'
+                    else f"{source.type} node")
+            warnings.append(f"{node.name}: texture coordinates from a {what} are not followed; "
                             "the default UV map is used")
-    return TextureRef(node.image, uv_map, node.interpolation, node.extension, np.ones(3))
+            mapping = None
+    return TextureRef(node.image, uv_map, node.interpolation, node.extension, np.ones(3), mapping)
+
+
+def _rotation(euler):
+    """Blender's XYZ Euler rotation: about x first, then y, then z."""
+    (cx, cy, cz), (sx, sy, sz) = np.cos(euler), np.sin(euler)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def _mapping(node, warnings):
+    """(3, 4) affine map of a Mapping node (Point, Texture or Vector type), or None (said why)."""
+    kind = node.vector_type
+    names = ("Location", "Rotation", "Scale") if kind != 'VECTOR' else ("Rotation", "Scale")
+    if kind == 'NORMAL' or any(node.inputs[n].is_linked for n in names):
+        warnings.append(f"{node.name}: a {kind.title()} Mapping node" +
+                        (" with linked inputs" if kind != 'NORMAL' else "") + " is not followed")
+        return None
+    location = np.array(node.inputs["Location"].default_value, np.float64)
+    rotation = _rotation(np.array(node.inputs["Rotation"].default_value, np.float64))
+    scale = np.array(node.inputs["Scale"].default_value, np.float64)
+    if kind == 'TEXTURE':   # the inverse of Point, a zero scale giving zero (Cycles' safe divide)
+        inverse = np.divide(1.0, scale, out=np.zeros(3), where=scale != 0)
+        linear = inverse[:, None] * rotation.T
+        return np.hstack([linear, (-linear @ location)[:, None]])
+    linear = rotation * scale[None, :]
+    return np.hstack([linear, (location if kind == 'POINT' else np.zeros(3))[:, None]])
+
+
+def _mapped(ref, uv):
+    """(K, 2) texture coordinates of UVs (K, 2) through ref's Mapping node, if any."""
+    if ref.mapping is None:
+        return uv
+    return uv @ ref.mapping[:2, :2].T + ref.mapping[:2, 3]
 
 
 def _encoded_srgb(image):
@@ -133,6 +182,7 @@ def corner_colours(ref, uv, images, user=""):
     who asks, a mesh and material, so that each keeps its own). Cycles bakes a corner as a point of
     its face: a UV on a texel's edge reads the texel on the face's side, so pass UVs a hair inside
     their faces."""
+    uv = _mapped(ref, uv)
     colour = images.sampled(ref.image, ("corners", user, ref.interpolation, ref.extension), uv,
                             lambda: _texels_at(ref, uv, images))
     return colour * ref.factor

@@ -22,8 +22,10 @@ from test_shading import cycles_corners, diffuse, direct_light, point_lamp  # no
 TEXELS = np.random.default_rng(7).uniform(0.05, 0.9, (4, 4, 3))
 
 
-def textured_grid(interpolation, colorspace, uv_scale):
-    """A 5 x 5-quad grid whose Diffuse BSDF takes its colour from the 4 x 4 image, under a lamp."""
+def textured_grid(interpolation, colorspace, uv_scale, mapping=None):
+    """A 5 x 5-quad grid whose Diffuse BSDF takes its colour from the 4 x 4 image, under a lamp.
+    `mapping`: (vector type, location, rotation, scale) of a Mapping node between a Texture
+    Coordinate node's UV and the image."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     cycles_settings.unbiased(scene, 4, 0, 0)  # direct light only: exact at any sample count
@@ -41,23 +43,50 @@ def textured_grid(interpolation, colorspace, uv_scale):
     tex.image = image
     tex.interpolation = interpolation
     bsdf.id_data.links.new(tex.outputs["Color"], bsdf.inputs["Color"])
+    if mapping is not None:
+        tree = bsdf.id_data
+        node = tree.nodes.new("ShaderNodeMapping")
+        node.vector_type, location, rotation, scale = mapping
+        node.inputs["Location"].default_value = location
+        node.inputs["Rotation"].default_value = rotation
+        node.inputs["Scale"].default_value = scale
+        coords = tree.nodes.new("ShaderNodeTexCoord")
+        tree.links.new(coords.outputs["UV"], node.inputs["Vector"])
+        tree.links.new(node.outputs["Vector"], tex.inputs["Vector"])
     point_lamp(scene, 300.0, (0.5, -0.3, 2.0))
     return ob
 
 
-CASES = [("Linear", "sRGB", 1.0), ("Closest", "sRGB", 1.0), ("Linear", "Non-Color", 1.0), ("Linear", "sRGB", 1.7)]
+# Mappings: shifted, turned about each axis (a turn about x or y folds the plane of the UVs) and
+# stretched unevenly, as a point and as a texture (its inverse), and one without a location.
+TURN = (0.3, -0.2, 0.5)
+MAPPINGS = {"point": ('POINT', (0.1, 0.25, 0.0), TURN, (1.3, 0.8, 1.0)),
+            "texture": ('TEXTURE', (0.1, 0.25, 0.0), TURN, (1.3, 0.8, 1.0)),
+            "vector": ('VECTOR', (0.0, 0.0, 0.0), TURN, (0.7, 1.6, 1.0))}
+CASES = [("Linear", "sRGB", 1.0, None), ("Closest", "sRGB", 1.0, None), ("Linear", "Non-Color", 1.0, None),
+         ("Linear", "sRGB", 1.7, None)] + [("Linear", "sRGB", 1.0, m) for m in MAPPINGS]
 
 
-@pytest.mark.parametrize("interpolation, colorspace, uv_scale", CASES,
-                         ids=[f"{i}-{c}-uv{s}" for i, c, s in CASES])
-def test_texture_colours_reach_the_corners_as_cycles_bakes_them(addon, interpolation, colorspace, uv_scale):
-    ob = textured_grid(interpolation, colorspace, uv_scale)
+@pytest.mark.parametrize("interpolation, colorspace, uv_scale, mapping", CASES,
+                         ids=[f"{i}-{c}-uv{s}" + (f"-{m}" if m else "") for i, c, s, m in CASES])
+def test_texture_colours_reach_the_corners_as_cycles_bakes_them(addon, interpolation, colorspace, uv_scale, mapping):
+    ob = textured_grid(interpolation, colorspace, uv_scale, MAPPINGS.get(mapping))
     ref = cycles_corners(ob)
-    assert addon.export.export_scene().meshes[0].corner_reflectance is not None
+    sx = addon.export.export_scene()
+    assert sx.meshes[0].corner_reflectance is not None and not sx.warnings, sx.warnings
     err = reference.relative_rms(direct_light(addon.export, ob), ref)
-    print(f"\n  {interpolation} {colorspace} uv x{uv_scale}: {100 * err:.3f}% RMS against Cycles", end="")
+    print(f"\n  {interpolation} {colorspace} uv x{uv_scale} {mapping or ''}: {100 * err:.3f}% RMS against Cycles", end="")
     # the colours vary 18-fold from texel to texel: a wrong texel or colour space is tens of percent
     assert err < 0.003
+
+
+def test_texture_coordinates_not_followed_are_reported(addon):
+    ob = textured_grid("Linear", "sRGB", 1.0, ('NORMAL', (0, 0, 0), TURN, (1, 1, 1)))
+    assert any("Normal Mapping node is not followed" in w for w in addon.export.export_scene().warnings)
+    tree = ob.active_material.node_tree
+    tree.links.new(tree.nodes["Texture Coordinate"].outputs["Generated"], tree.nodes["Mapping"].inputs["Vector"])
+    tree.nodes["Mapping"].vector_type = 'POINT'
+    assert any("Texture Coordinate's Generated are not followed" in w for w in addon.export.export_scene().warnings)
 
 
 def test_a_textured_bake_reports_the_texture_and_a_texture_change_re_adds_the_object(addon):
