@@ -1,12 +1,19 @@
 """Rays per second of the solver against bare Embree tracing the same rays on the same scene.
 
+    /usr/bin/python3.11 bench/ray_throughput.py [--threads N] [preset ...]
+
 The solver's rate counts the whole solve (form factors, shot building, bookkeeping); the bare rate
-replays an even sample of the very batches the solver traced, through rtcOccluded1M on all cores.
-Target: ratio >= 0.7."""
+replays an even sample of the very batches the solver traced, through rtcOccluded1M on all cores
+(or N threads: with one, neither has threads to wait for or a neighbour's load to share, and the
+ratio is our work per ray against Embree's, with less noise between runs). Target: ratio >= 0.7."""
 import os
 import statistics
 import sys
 
+if "--threads" in sys.argv:  # before OpenMP starts, which reads it once
+    at = sys.argv.index("--threads")
+    os.environ["OMP_NUM_THREADS"] = sys.argv[at + 1]
+    del sys.argv[at:at + 2]
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 from scenes import cornell_box, engine  # noqa: E402
 
@@ -31,8 +38,9 @@ def measure(preset, repeats=3):
 
 
 def main():
+    threads = os.environ.get("OMP_NUM_THREADS", "all cores")
     print(f"{'scene':12} {'preset':8} {'points':>7} {'rays':>11} {'solver Mrays/s':>15} "
-          f"{'bare Mrays/s':>13} {'ratio':>6}   (medians of 3)")
+          f"{'bare Mrays/s':>13} {'ratio':>6}   (medians of 3; threads: {threads})")
     for preset in sys.argv[1:] or ["draft", "default"]:
         stats, solver_rate, bare_rate, ratio = measure(preset)
         print(f"{'cornell_box':12} {preset:8} {stats['points']:7d} {stats['rays']:11d} "
