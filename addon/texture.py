@@ -127,8 +127,9 @@ class Images:
     PER_FRAME = {'SEQUENCE', 'MOVIE', 'VIEWER'}
 
     def __init__(self):
-        self._pixels = {}    # image name -> (H, W, 4) float32, this export's
-        self._sampled = {}   # (image name, what) -> (stamp, inputs, result)
+        # Keyed by name_full: images linked from two libraries may share a name.
+        self._pixels = {}    # image -> (H, W, 4) float32, this export's
+        self._sampled = {}   # (image, what) -> (stamp, inputs, result)
         self._used = set()
 
     @staticmethod
@@ -138,15 +139,15 @@ class Images:
                 image.colorspace_settings.name)
 
     def pixels(self, image):
-        if image.name not in self._pixels:
-            self._pixels[image.name] = _read(image)
-        return self._pixels[image.name]
+        if image.name_full not in self._pixels:
+            self._pixels[image.name_full] = _read(image)
+        return self._pixels[image.name_full]
 
     def sampled(self, image, what, inputs, work):
         """work(), or its result from an earlier export of the same image, `what` and `inputs`."""
         if image.source in self.PER_FRAME:
             return work()
-        key = (image.name, what)
+        key = (image.name_full, what)
         stamp = self._stamp(image)
         kept = self._sampled.get(key)
         self._used.add(key)
