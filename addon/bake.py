@@ -99,8 +99,12 @@ def effects_of(sx):
     used = {int(i) for m in meshes for i in np.unique(m.face_materials)}
     if any(max(sx.materials[i].emission) > 0 for i in used):
         out.append("emission")
-    if any(m.corner_reflectance is not None for m in meshes):
+    sources = {type(sx.materials[i].texture) for m in meshes if m.corner_reflectance is not None
+               for i in np.unique(m.face_materials)}
+    if texture.TextureRef in sources:
         out.append("colour textures (sampled at face corners)")
+    if texture.AttributeRef in sources:
+        out.append("colour attributes")
     if any(m.refine == "catmull_clark" for m in meshes):
         out.append("Catmull-Clark objects")
     if meshes:

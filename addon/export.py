@@ -40,8 +40,10 @@ class MaterialExport:
     reflectance: tuple            # rho, linear RGB
     emission: tuple               # emitted radiance, linear RGB, two-sided
     warnings: list = field(default_factory=list)
-    texture: colour_texture.TextureRef = None  # an image on the BSDF's colour: reflectance per face corner
-                                        # (MeshExport.corner_reflectance); `reflectance` is its mean
+    # What varies the BSDF's colour over a mesh (texture.TextureRef or AttributeRef): reflectance per
+    # face corner (MeshExport.corner_reflectance); `reflectance` is an image's mean, or black for an
+    # attribute (as Cycles takes a mesh without it).
+    texture: object = None
 
 
 @dataclass
@@ -146,8 +148,9 @@ def _below_one(rho, label, warnings):
 
 
 def _colour(node, name, warnings, textures):
-    """A BSDF's colour input: (3,) array; ones when an image texture on it goes to `textures`."""
-    tex = colour_texture.image_texture(node.inputs[name], warnings) if textures is not None else None
+    """A BSDF's colour input: (3,) array; ones when what varies it across a mesh (an image texture, a
+    colour attribute) goes to `textures`."""
+    tex = colour_texture.colour_source(node.inputs[name], warnings) if textures is not None else None
     if tex is not None:
         textures.append(tex)
         return np.ones(3)
@@ -222,10 +225,13 @@ def material_values(mat, images=None):
             return MaterialExport(mat.name, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), ["no material output"])
         textures = []
         rho, em = _shader(_linked(out.inputs["Surface"]), warnings, textures=textures)
-        if textures:   # where there are no UVs to sample it at, the image's mean
-            textures[0].factor = rho
-            rho = _below_one(rho * colour_texture.mean_colour(textures[0].image, images), "its colours", warnings)
-            return MaterialExport(mat.name, _rgb(rho), _rgb(em), warnings, textures[0])
+        if textures:   # where there are no UVs to sample an image at, its mean
+            source = textures[0]
+            source.factor = rho
+            mean = (colour_texture.mean_colour(source.image, images)
+                    if isinstance(source, colour_texture.TextureRef) else np.zeros(3))
+            rho = _below_one(rho * mean, "its colours", warnings)
+            return MaterialExport(mat.name, _rgb(rho), _rgb(em), warnings, source)
     else:
         rho, em = np.array(mat.diffuse_color[:3]), np.zeros(3)
     return MaterialExport(mat.name, _rgb(_below_one(rho, "its colours", warnings)), _rgb(em), warnings)
@@ -336,8 +342,8 @@ def _is_animated(ob):
 
 
 def _corner_reflectance(me, loops, sizes, face_materials, materials, images, label, warnings):
-    """(K,3) reflectance per exported corner, the textured materials' sampled at the corners' UVs, or
-    None when no face's material has a texture."""
+    """(K,3) reflectance per exported corner, where a face's material has a texture (sampled at the
+    corners' UVs) or a colour attribute (read there); None when none has."""
     textured = {int(i) for i in np.unique(face_materials) if materials[i].texture is not None}
     if not textured:
         return None
@@ -348,6 +354,12 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
     by_layer = {}   # UVs per map, read once: several textured materials may share one
     for i in sorted(textured):
         tex = materials[i].texture
+        at = corner_material == i
+        if isinstance(tex, colour_texture.AttributeRef):
+            colours = colour_texture.attribute_colours(tex, me, loops, label, warnings)
+            if colours is not None:
+                rho[at] = colours[at]
+            continue
         layer = me.uv_layers.get(tex.uv_map) if tex.uv_map else next(
             (l for l in me.uv_layers if l.active_render), me.uv_layers.active)
         if layer is None:
@@ -364,7 +376,6 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
             middle = np.repeat(np.add.reduceat(uv, starts) / sizes[:, None], sizes, axis=0)
             by_layer[layer.name] = uv + INSIDE * (middle - uv)
         uv = by_layer[layer.name]
-        at = corner_material == i
         rho[at] = colour_texture.corner_colours(tex, uv[at], images, (label, materials[i].name))
     return _below_one(rho, f"{label}'s texture colours", warnings)
 

@@ -1,5 +1,6 @@
-"""A colour texture on a diffuse or Principled BSDF's colour: found in the node tree, sampled at face
-corners' UVs as Cycles samples it (texel centres at (i + 0.5) / size, Linear or Closest, the node's
+"""What varies a diffuse or Principled BSDF's colour across a mesh: a colour attribute, read at the
+face corners, or a colour texture, found in the node tree and sampled at face corners' UVs as Cycles
+samples it (texel centres at (i + 0.5) / size, Linear or Closest, the node's
 extension; an 8-bit sRGB image interpolated as stored and then made linear, as Cycles keeps such
 images compressed), with numpy over all corners at once. The UVs come from a UV Map node, a
 Texture Coordinate node's UV or the default map, through a Mapping node if there is one.
@@ -11,7 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TextureRef", "Images", "image_texture", "corner_colours", "mean_colour"]
+from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
+
+__all__ = ["TextureRef", "AttributeRef", "Images", "colour_source", "image_texture", "corner_colours",
+           "attribute_colours", "mean_colour"]
 
 
 @dataclass
@@ -22,6 +26,56 @@ class TextureRef:
     extension: str                # 'REPEAT', 'EXTEND', 'CLIP', 'MIRROR'
     factor: np.ndarray            # (3,) what the BSDF multiplies the colour by (Principled: metal, transmission)
     mapping: np.ndarray = None    # (3, 4): a Mapping node's affine map of (u, v, 0, 1), or None
+
+
+@dataclass
+class AttributeRef:
+    name: str                     # "" = the mesh's default colour attribute (the node's default)
+    factor: np.ndarray            # as TextureRef.factor
+
+
+def colour_source(socket, warnings):
+    """TextureRef or AttributeRef for what varies `socket`'s colour across a mesh, else None."""
+    return image_texture(socket, warnings) or colour_attribute(socket, warnings)
+
+
+def colour_attribute(socket, warnings):
+    """AttributeRef for a Color Attribute node, or an Attribute node's Color, linked straight into
+    `socket`, else None."""
+    if socket is None or not socket.is_linked:
+        return None
+    link = socket.links[0]
+    node = link.from_node
+    if node.type == 'VERTEX_COLOR':
+        name = node.layer_name
+    elif node.type == 'ATTRIBUTE' and node.attribute_type == 'GEOMETRY' and link.from_socket.identifier == 'Color':
+        name = node.attribute_name
+    else:
+        return None
+    if name == OUTPUT_ATTRIBUTE:   # it would take the last bake's light for its colour
+        warnings.append(f"{node.name} reads {OUTPUT_ATTRIBUTE}, the bake's own output: its unlinked colour is used")
+        return None
+    return AttributeRef(name, np.ones(3))
+
+
+def attribute_colours(ref, me, loops, label, warnings):
+    """(K, 3) linear RGB of `ref`'s colour attribute at the exported corners (`loops`: their mesh
+    loops, None: all), times ref.factor; None (said why) if the mesh has no such colour attribute."""
+    attrs = me.color_attributes
+    attr = attrs.get(ref.name) if ref.name else (
+        attrs[attrs.render_color_index] if 0 <= attrs.render_color_index < len(attrs) else None)
+    if attr is None or attr.domain not in ('POINT', 'CORNER'):
+        warnings.append(f"{label}: no colour attribute {ref.name or '(the default)'} on points or corners; "
+                        "black, as Cycles takes it")
+        return None
+    values = np.empty(len(attr.data) * 4, np.float32)
+    attr.data.foreach_get("color", values)   # linear, bytes included
+    values = values.reshape(-1, 4)[:, :3].astype(np.float64)
+    if attr.domain == 'POINT':
+        corner_vertex = np.empty(len(me.loops), np.int32)
+        me.loops.foreach_get("vertex_index", corner_vertex)
+        values = values[corner_vertex]
+    return (values if loops is None else values[loops]) * ref.factor
 
 
 def image_texture(socket, warnings):

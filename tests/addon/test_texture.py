@@ -1,7 +1,7 @@
-"""A colour texture on the BSDF's colour, sampled at the face corners as Cycles samples it. Checked
-on direct light (a point lamp without radius, no bounces), where Cycles' vertex bake is exact at a
-few samples: each corner's value is the lamp's light times the texture's colour at its UV, so a
-wrong texel convention, colour space or wrap shows at once."""
+"""A colour texture or a colour attribute on the BSDF's colour, taken at the face corners as Cycles
+takes it. Checked on direct light (a point lamp without radius, no bounces), where Cycles' vertex
+bake is exact at a few samples: each corner's value is the lamp's light times the colour there, so a
+wrong texel convention, colour space, wrap, mapping or attribute domain shows at once."""
 import os
 import sys
 
@@ -71,13 +71,19 @@ CASES = [("Linear", "sRGB", 1.0, None), ("Closest", "sRGB", 1.0, None), ("Linear
                          ids=[f"{i}-{c}-uv{s}" + (f"-{m}" if m else "") for i, c, s, m in CASES])
 def test_texture_colours_reach_the_corners_as_cycles_bakes_them(addon, interpolation, colorspace, uv_scale, mapping):
     ob = textured_grid(interpolation, colorspace, uv_scale, MAPPINGS.get(mapping))
+    corners_as_cycles_bakes_them(addon, ob, f"{interpolation} {colorspace} uv x{uv_scale} {mapping or ''}")
+
+
+def corners_as_cycles_bakes_them(addon, ob, label):
+    """Checks ob's corners' direct light against Cycles' vertex bake; returns the export."""
     ref = cycles_corners(ob)
     sx = addon.export.export_scene()
     assert sx.meshes[0].corner_reflectance is not None and not sx.warnings, sx.warnings
     err = reference.relative_rms(direct_light(addon.export, ob), ref)
-    print(f"\n  {interpolation} {colorspace} uv x{uv_scale} {mapping or ''}: {100 * err:.3f}% RMS against Cycles", end="")
-    # the colours vary 18-fold from texel to texel: a wrong texel or colour space is tens of percent
+    print(f"\n  {label}: {100 * err:.3f}% RMS against Cycles", end="")
+    # the colours vary 18-fold from corner to corner: a wrong texel or colour space is tens of percent
     assert err < 0.003
+    return sx
 
 
 def test_texture_coordinates_not_followed_are_reported(addon):
@@ -153,3 +159,49 @@ def test_frames_reuse_what_was_sampled_and_an_edit_reads_the_image_again(addon, 
     stored = round(grey * 255) / 255                  # an 8-bit image
     linear = ((stored + 0.055) / 1.055) ** 2.4
     assert np.allclose(reflectance(), linear, rtol=1e-6), reflectance()[:3]
+
+
+ATTRIBUTES = [("FLOAT_COLOR", 'CORNER', "VERTEX_COLOR"), ("BYTE_COLOR", 'POINT', "ATTRIBUTE"),
+              ("BYTE_COLOR", 'CORNER', "DEFAULT")]
+
+
+@pytest.mark.parametrize("kind, domain, node", ATTRIBUTES, ids=[f"{k}-{d}-{n}" for k, d, n in ATTRIBUTES])
+def test_colour_attribute_colours_reach_the_corners_as_cycles_bakes_them(addon, kind, domain, node):
+    """A Color Attribute node (named, or the default: the render colour attribute) or an Attribute
+    node's Color on the Diffuse BSDF: each corner takes the attribute's colour there."""
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    tree = ob.active_material.node_tree
+    tree.nodes.remove(tree.nodes["Image Texture"])
+    me = ob.data
+    decoy = me.color_attributes.new("Decoy", 'FLOAT_COLOR', 'CORNER')   # not the one asked for
+    decoy.data.foreach_set("color", np.ones(len(decoy.data) * 4, np.float32))
+    attr = me.color_attributes.new("Paint", kind, domain)
+    colours = np.random.default_rng(3).uniform(0.05, 0.9, (len(attr.data), 4)).astype(np.float32)
+    attr.data.foreach_set("color", colours.ravel())
+    if node == "ATTRIBUTE":
+        source = tree.nodes.new("ShaderNodeAttribute")
+        source.attribute_name = "Paint"
+    else:
+        source = tree.nodes.new("ShaderNodeVertexColor")
+        source.layer_name = "Paint" if node == "VERTEX_COLOR" else ""
+        me.color_attributes.render_color_index = me.color_attributes.find("Paint")
+    tree.links.new(source.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
+    sx = corners_as_cycles_bakes_them(addon, ob, f"{kind} on {domain}, {node}")
+    assert "colour attributes" in addon.bake.effects_of(sx)
+
+
+def test_a_colour_attribute_missing_or_the_bakes_own_output_is_reported(addon):
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    tree = ob.active_material.node_tree
+    tree.nodes.remove(tree.nodes["Image Texture"])
+    source = tree.nodes.new("ShaderNodeVertexColor")
+    source.layer_name = "Paint"
+    tree.links.new(source.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
+    sx = addon.export.export_scene()
+    assert any("no colour attribute Paint" in w for w in sx.warnings), sx.warnings
+    assert max(sx.materials[0].reflectance) == 0                 # black, as Cycles takes it:
+    assert np.abs(cycles_corners(ob)).max() < 1e-6
+    source.layer_name = addon.writeback.ATTRIBUTE
+    sx = addon.export.export_scene()
+    assert any("the bake's own output" in w for w in sx.warnings), sx.warnings
+    assert sx.materials[0].texture is None and min(sx.materials[0].reflectance) > 0.5   # the unlinked grey
