@@ -107,6 +107,8 @@ def effects_of(sx):
         out.append("colour attributes")
     if any(m.refine == "catmull_clark" for m in meshes):
         out.append("Catmull-Clark objects")
+    if any(m.object_type != 'MESH' for m in meshes):
+        out.append("curve, text, surface and metaball objects (in the light, with no colours to hold)")
     if meshes:
         out.append("diffuse interreflection")
     return ", ".join(out)
@@ -425,6 +427,8 @@ class BakeJob:
         settings (Solver.corner_radiance)."""
         out = {}
         for m in self.export.visible_meshes:
+            if m.object_type != 'MESH':   # no colour attribute to hold them: in effects_of
+                continue
             if not m.matches_original or m.name != m.object_name:
                 if m.name == m.object_name:
                     self.warnings.append(f"{m.name}: modifiers change its topology; not written")
@@ -470,7 +474,7 @@ def scene_measure(scene):
         if ob.type == 'LIGHT':
             lights += 1
             continue
-        if ob.type != 'MESH':
+        if ob.type not in exporter.GEOMETRY:
             continue
         M = np.array(ob.matrix_world, np.float64)
         bb = np.array([tuple(c) for c in ob.bound_box], np.float64) @ M[:3, :3].T + M[:3, 3]

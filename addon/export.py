@@ -64,6 +64,7 @@ class MeshExport:
     visible: bool = True          # False: hidden from render; the engine keeps it out of the lighting
     smooth: np.ndarray = None     # (F,) bool, Shade Smooth per face (Cycles bakes with interpolated normals)
     corner_reflectance: np.ndarray = None  # (K,3) per exported corner where a material has a texture
+    object_type: str = 'MESH'     # the Blender object's: the others light the scene but hold no colours
 
 
 @dataclass
@@ -388,7 +389,7 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
     images = colour_texture.Images() if images is None else images
     lut = export_materials_of(ob_eval, registry, materials, images)
     orig = ob_eval.original
-    sub = _last_subsurf(orig)
+    sub = _last_subsurf(orig) if orig.type == 'MESH' else None   # a curve's is Blender's to apply
     refine, level = "bilinear", 0
     if sub is not None:
         level = int(sub.render_levels if use_render_levels else sub.levels)
@@ -401,7 +402,8 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
     else:
         me = ob_eval.to_mesh()
         cleanup = ob_eval.to_mesh_clear
-    matches = len(me.loops) == len(orig.data.loops) and len(me.polygons) == len(orig.data.polygons)
+    matches = orig.type == 'MESH' and len(me.loops) == len(orig.data.loops) and \
+        len(me.polygons) == len(orig.data.polygons)
     try:
         co, sizes, fv, mi, loops = mesh_arrays(me)
         fm = lut[np.clip(mi, 0, len(lut) - 1)]
@@ -415,7 +417,7 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
         cleanup()
     return MeshExport(name or ob_eval.name, co, sizes, fv, fm.astype(np.int32),
                       np.array(matrix, np.float64), refine, level, loops, matches,
-                      _is_animated(orig), orig.name, smooth=smooth, corner_reflectance=rho)
+                      _is_animated(orig), orig.name, smooth=smooth, corner_reflectance=rho, object_type=orig.type)
 
 
 # ----------------------------------------------------------------------------- lights
@@ -487,6 +489,11 @@ def _rendered_collections(scene):
     return rendered
 
 
+# Object types whose evaluated geometry Cycles renders as surfaces (hair curves and point clouds it
+# does not draw as faces). Curves, text, surfaces and metaballs light the scene but hold no colours.
+GEOMETRY = ('MESH', 'CURVE', 'FONT', 'SURFACE', 'META')
+
+
 def export_scene(depsgraph=None, use_render_levels=True, images=None):
     """Export the evaluated scene. Meshes and lamps hidden from render are exported too (meshes with
     visible=False, lamps dark()): a Solver built from the export can show them later without a rebuild.
@@ -503,8 +510,10 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
     rendered = _rendered_collections(scene.original)
     for inst in depsgraph.object_instances:
         ob = inst.object
-        if ob.type not in ('MESH', 'LIGHT'):
+        if ob.type not in GEOMETRY and ob.type != 'LIGHT':
             continue
+        if inst.is_instance and ob.original.type in GEOMETRY and ob.original.type != 'MESH':
+            continue   # a curve's (text's...) own evaluated mesh, which it is exported as below
         if inst.is_instance:
             counts[ob.name] = counts.get(ob.name, 0) + 1
             name = f"{ob.name}[{counts[ob.name] - 1}]"
@@ -520,7 +529,7 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
     try:
         for orig, kind, M, name, visible in items:
             ev = orig.evaluated_get(depsgraph)
-            if kind == 'MESH':
+            if kind in GEOMETRY:
                 m = export_mesh(ev, depsgraph, M, registry, materials, name, use_render_levels,
                                 cages.get(orig.name), warnings, images)
                 m.visible = visible

@@ -110,3 +110,32 @@ def test_direct_light_follows_the_shading(export, kind, smooth):
     err = reference.relative_rms(direct_light(export, ob), ref)
     print(f"\n  {kind} {'smooth' if smooth else 'flat'}: {100 * err:.3f}% RMS against Cycles", end="")
     assert err < BOUNDS[kind, smooth]
+
+
+def test_curve_and_text_objects_cast_their_shadows_as_in_cycles(export):
+    """Curves, text, surfaces and metaballs are surfaces to Cycles: they block and reflect light,
+    though they hold no colour attribute. Before, the export failed on text and curves (their
+    evaluated meshes came as instances of objects with no loops) and passed metaballs over."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    cycles_settings.unbiased(scene, 4, 0, 0)  # direct light only: exact at any sample count
+    scene.render.bake.target = 'VERTEX_COLORS'
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=24, y_subdivisions=24, size=4.0)
+    floor = bpy.context.object
+    diffuse(floor)
+    bpy.ops.object.text_add(location=(-1.3, -0.7, 0.9))
+    text = bpy.context.object
+    text.data.body, text.data.size, text.data.extrude = "HI", 1.4, 0.05
+    bpy.ops.curve.primitive_bezier_circle_add(radius=0.5, location=(0.9, 0.8, 0.6))
+    bpy.context.object.data.bevel_depth = 0.08
+    bpy.ops.object.metaball_add(type='BALL', radius=0.4, location=(0.9, -1.0, 0.7))
+    point_lamp(scene, 500.0, (0.2, -0.1, 3.0))
+    bpy.ops.object.select_all(action='DESELECT')   # Cycles bakes what is selected
+    ref = cycles_corners(floor)
+    dark = ref.max(1) < 0.05 * ref.max()
+    assert dark.sum() >= 30, dark.sum()   # the three cast shadows over many corners
+    err = reference.relative_rms(direct_light(export, floor), ref)
+    print(f"\n  floor under text, a bevelled curve and a metaball: {100 * err:.3f}% RMS against Cycles", end="")
+    assert err < 0.005
+    sx = export.export_scene()   # each once (the depsgraph also lists their meshes as instances)
+    assert sorted(m.object_type for m in sx.meshes) == ['CURVE', 'FONT', 'MESH', 'META']
