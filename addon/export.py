@@ -512,8 +512,8 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
         ob = inst.object
         if ob.type not in GEOMETRY and ob.type != 'LIGHT':
             continue
-        if inst.is_instance and ob.original.type in GEOMETRY and ob.original.type != 'MESH':
-            continue   # a curve's (text's...) own evaluated mesh, which it is exported as below
+        if inst.is_instance and ob.type == 'MESH' and ob.original.type != 'MESH':
+            continue   # a curve's (text's...) evaluated mesh: listed beside the curve, exported as it
         if inst.is_instance:
             counts[ob.name] = counts.get(ob.name, 0) + 1
             name = f"{ob.name}[{counts[ob.name] - 1}]"

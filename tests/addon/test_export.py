@@ -246,3 +246,22 @@ def test_collections_hidden_from_render_hide_their_objects(export, empty_scene):
     assert visible() == {"InInner": False, "InOuter": False, "Twice": True}
     outer.hide_render, inner.hide_render = False, True
     assert visible() == {"InInner": False, "InOuter": True, "Twice": True}
+
+
+def test_text_goes_once_itself_and_once_per_collection_instance(export, empty_scene):
+    """The depsgraph lists a text object, and each instance of it, twice: as the text and as its
+    mesh. Each goes once, where it stands."""
+    source = bpy.data.collections.new("Source")
+    empty_scene.collection.children.link(source)
+    text = bpy.data.objects.new("Sign", bpy.data.curves.new("Sign", 'FONT'))
+    text.data.body, text.data.extrude = "OK", 0.02
+    text.location = (0.0, 0.0, 1.0)
+    source.objects.link(text)
+    holder = bpy.data.objects.new("Holder", None)
+    holder.instance_type, holder.instance_collection = 'COLLECTION', source
+    holder.location = (0.0, 5.0, 0.0)
+    empty_scene.collection.objects.link(holder)
+    sx = export.export_scene()
+    assert [(m.name, m.object_type) for m in sx.meshes] == [("Sign", 'FONT'), ("Sign[0]", 'FONT')]
+    assert np.allclose(sx.meshes[0].transform[:3, 3], (0, 0, 1)) and np.allclose(sx.meshes[1].transform[:3, 3], (0, 5, 1))
+    assert len(sx.meshes[0].face_sizes) == len(sx.meshes[1].face_sizes) > 10
