@@ -431,7 +431,7 @@ class BakeJob:
                 continue
             if not m.matches_original or m.name != m.object_name:
                 if m.name == m.object_name:
-                    self.warnings.append(f"{m.name}: modifiers change its topology; not written")
+                    self.warnings.append(f"{m.name}: modifiers move or deform the faces it has; not written")
                 continue
             rad = np.asarray(self.solver.corner_radiance(self.ids[m.name], exact_near_direct), np.float32)
             n = len(rad) if m.loop_indices is None else int(m.loop_indices.max()) + 1
@@ -439,7 +439,8 @@ class BakeJob:
             if m.loop_indices is None:
                 rgba[:, :3] = rad
             else:
-                rgba[m.loop_indices, :3] = rad
+                kept = m.loop_indices >= 0   # not the copies of its faces that modifiers made
+                rgba[m.loop_indices[kept], :3] = rad[kept]
             out[m.object_name] = rgba
         return out
 

@@ -321,3 +321,33 @@ def test_panels_draw(addon):
     scene.radiosity.last_effects = "point lamps, area lamps, world, emission, Catmull-Clark objects"
     addon.panels.draw_results(lay, bpy.context)
     assert any(t.startswith("Residual") for t in lay.labels)
+
+
+def test_an_object_whose_modifiers_add_faces_gets_the_colours_of_the_faces_it_has(addon):
+    """Mirror, Array and Solidify keep the original faces where they were and add copies: the
+    original faces' corners get what the same object with its modifiers applied gets there."""
+    scene, floor = empty_with_plane()
+    floor.scale = (3, 3, 1)
+    bpy.ops.mesh.primitive_cube_add(size=0.4, location=(0.4, 0.2, 0.3))
+    ob = bpy.context.object
+    ob.modifiers.new("Mirror", 'MIRROR')
+    ob.modifiers.new("Array", 'ARRAY').relative_offset_displace = (0, 1.5, 0)
+    ob.modifiers.new("Solidify", 'SOLIDIFY').thickness = 0.05
+    applied = bpy.data.objects.new("Applied", bpy.data.meshes.new_from_object(ob.evaluated_get(
+        bpy.context.evaluated_depsgraph_get())))
+    scene.collection.objects.link(applied)
+    applied.matrix_world = ob.matrix_world
+    applied.hide_render = True
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    ours = colours(ob)
+    assert ours is not None and len(ours) == len(ob.data.loops) and len(applied.data.loops) > 4 * len(ours)
+    ob.hide_render, applied.hide_render = True, False
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    # each original loop against the applied mesh's corner at the same place on the same face
+    keys = addon.export._corner_keys
+    a = keys(*addon.export.mesh_arrays(ob.data)[:3])
+    b = keys(*addon.export.mesh_arrays(applied.data)[:3])
+    where = {tuple(row): i for i, row in reversed(list(enumerate(b)))}
+    same = colours(applied)[[where[tuple(row)] for row in a]]
+    assert np.ptp(ours[:, :3]) > 0.05                        # lit and shaded faces
+    assert np.allclose(ours, same, rtol=1e-5, atol=1e-7), np.abs(ours - same).max()
