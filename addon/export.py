@@ -239,8 +239,11 @@ def material_values(mat, images=None):
     return MaterialExport(mat.name, _rgb(_below_one(rho, "its colours", warnings)), _rgb(em), warnings)
 
 
-def world_radiance(world):
-    """Background radiance (3,) of a World (colour * strength of its Background node)."""
+def world_radiance(world, warnings=None, images=None):
+    """Background radiance (3,) of a World: its Background node's colour times strength. An
+    Environment Texture there gives its image's mean radiance over the sphere, as a uniform sky
+    (the engine's world has no directions; said in `warnings`)."""
+    warnings = [] if warnings is None else warnings
     if world is None:
         return np.zeros(3)
     if world.use_nodes and world.node_tree is not None:
@@ -250,8 +253,19 @@ def world_radiance(world):
             return np.zeros(3)
         if node.type == 'BACKGROUND':
             c = node.inputs["Color"]
-            col = np.array(c.default_value[:3]) if not c.is_linked else np.array(world.color[:3])
-            return col * float(node.inputs["Strength"].default_value)
+            strength = float(_input_value(node, "Strength", warnings))
+            if not c.is_linked:
+                return np.array(c.default_value[:3]) * strength
+            source = c.links[0].from_node
+            if source.type == 'TEX_ENVIRONMENT' and source.image is not None:
+                images = colour_texture.Images() if images is None else images
+                warnings.append(f"world: {source.image.name}'s mean radiance over the sphere, as a uniform "
+                                "sky (the directions its light comes from are not followed)")
+                return colour_texture.sky_mean(source, images) * strength
+            warnings.append(f"world: a {source.type} node on the Background's colour is not followed; "
+                            "the world's viewport colour is used")
+            return np.array(world.color[:3]) * strength
+        warnings.append(f"world: a {node.type} node is not followed; the world is black")
         return np.zeros(3)
     return np.array(world.color[:3], dtype=np.float64)
 
@@ -589,13 +603,14 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
                 lights.append(le)
             else:
                 lights.append(dark(light_values(ev, M, name)))
+        world = world_radiance(scene.world, warnings, images)
     finally:
         images.end_export()
         for me in cages.values():
             bpy.data.meshes.remove(me)
     for m in materials:
         warnings += [f"material {m.name}: {w}" for w in m.warnings]
-    return SceneExport(meshes, materials, lights, world_radiance(scene.world), scene.frame_current, warnings)
+    return SceneExport(meshes, materials, lights, world, scene.frame_current, warnings)
 
 
 # ----------------------------------------------------------------------------- engine feed

@@ -15,7 +15,7 @@ import numpy as np
 from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
 
 __all__ = ["TextureRef", "AttributeRef", "Images", "colour_source", "image_texture", "corner_colours",
-           "attribute_colours", "mean_colour"]
+           "attribute_colours", "mean_colour", "sky_mean"]
 
 
 @dataclass
@@ -230,6 +230,27 @@ def mean_colour(image, images):
             return np.zeros(3)
         return (_srgb_to_linear(px) if _encoded_srgb(image) else px).mean((0, 1), dtype=np.float64)
     return images.sampled(image, "mean", None, work)
+
+
+def sky_mean(node, images):
+    """(3,) mean linear radiance of an Environment Texture node's image over the sphere: an
+    equirectangular image's rows weighted by the cosine of their latitude (a mirror ball's pixels
+    alike). Over every texel: a sun a few texels wide can carry most of an HDRI's light."""
+    image = node.image
+
+    def work():
+        px = images.pixels(image)[:, :, :3]
+        if not px.size:
+            return np.zeros(3)
+        if _encoded_srgb(image):
+            px = _srgb_to_linear(px)
+        rows = px.mean(1, dtype=np.float64)
+        if node.projection != 'EQUIRECTANGULAR':
+            return rows.mean(0)
+        latitude = ((np.arange(len(rows)) + 0.5) / len(rows) - 0.5) * np.pi
+        weight = np.cos(latitude)
+        return (rows * weight[:, None]).sum(0) / weight.sum()
+    return images.sampled(image, ("sky", node.projection), None, work)
 
 
 def corner_colours(ref, uv, images, user=""):

@@ -265,3 +265,31 @@ def test_text_goes_once_itself_and_once_per_collection_instance(export, empty_sc
     assert [(m.name, m.object_type) for m in sx.meshes] == [("Sign", 'FONT'), ("Sign[0]", 'FONT')]
     assert np.allclose(sx.meshes[0].transform[:3, 3], (0, 0, 1)) and np.allclose(sx.meshes[1].transform[:3, 3], (0, 5, 1))
     assert len(sx.meshes[0].face_sizes) == len(sx.meshes[1].face_sizes) > 10
+
+
+def test_an_environment_texture_lights_as_its_mean_over_the_sphere(export, empty_scene):
+    """Its rows weighted by the cosine of their latitude: here the upper and lower halves of the
+    sphere, equal in solid angle, average to the mean of their two colours."""
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    empty_scene.world = world
+    image = bpy.data.images.new("Sky", 64, 32, float_buffer=True)
+    px = np.ones((32, 64, 4), np.float32)
+    px[16:, :, :3] = (2.0, 1.0, 0.5)      # rows count from the bottom: the upper half
+    px[:16, :, :3] = 0.5
+    px[16:, 60:, :3] = 0.0               # a corner of the upper half, near the horizon: dark
+    image.pixels.foreach_set(px.ravel())
+    tree = world.node_tree
+    env = tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = image
+    background = tree.nodes["Background"]
+    tree.links.new(env.outputs["Color"], background.inputs["Color"])
+    background.inputs["Strength"].default_value = 3.0
+    sx = export.export_scene()
+    latitude = ((np.arange(32) + 0.5) / 32 - 0.5) * np.pi
+    w = np.cos(latitude)
+    upper = (np.array([2.0, 1.0, 0.5]) * 60 / 64 * w[16:].sum() + 0.5 * w[:16].sum()) / w.sum()
+    assert np.allclose(sx.world, 3.0 * upper, rtol=1e-6), sx.world
+    assert any("uniform sky" in w for w in sx.warnings), sx.warnings
+    env.image = None
+    assert any("ShaderNodeTexEnvironment" in w or "TEX_ENVIRONMENT" in w for w in export.export_scene().warnings)
