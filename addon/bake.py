@@ -99,8 +99,8 @@ def effects_of(sx):
     used = {int(i) for m in meshes for i in np.unique(m.face_materials)}
     if any(max(sx.materials[i].emission) > 0 for i in used):
         out.append("emission")
-    sources = {type(sx.materials[i].texture) for m in meshes if m.corner_reflectance is not None
-               for i in np.unique(m.face_materials)}
+    sources = {type(leaf) for m in meshes if m.corner_reflectance is not None
+               for i in np.unique(m.face_materials) for leaf in texture.leaves(sx.materials[i].texture)}
     if texture.TextureRef in sources:
         out.append("colour textures (sampled at face corners)")
     if texture.AttributeRef in sources:

@@ -151,12 +151,14 @@ def _below_one(rho, label, warnings):
 
 def _colour(node, name, warnings, textures):
     """A BSDF's colour input: (3,) array; ones when what varies it across a mesh (an image texture, a
-    colour attribute) goes to `textures`."""
-    tex = colour_texture.colour_source(node.inputs[name], warnings) if textures is not None else None
-    if tex is not None:
-        textures.append(tex)
-        return np.ones(3)
-    return np.array(_input_value(node, name, warnings)[:3])
+    colour attribute, a Mix with one of those) goes to `textures`."""
+    source = colour_texture.colour_source(node.inputs[name], warnings) if textures is not None else None
+    if source is None:
+        return np.array(_input_value(node, name, warnings)[:3])
+    if not colour_texture.varies(source):   # a Mix of plain colours
+        return colour_texture.mean_of(source, None)
+    textures.append(source)
+    return np.ones(3)
 
 
 def _shader(node, warnings, depth=0, textures=None):
@@ -227,12 +229,10 @@ def material_values(mat, images=None):
             return MaterialExport(mat.name, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), ["no material output"])
         textures = []
         rho, em = _shader(_linked(out.inputs["Surface"]), warnings, textures=textures)
-        if textures:   # where there are no UVs to sample an image at, its mean
+        if textures:   # where it cannot be read at the corners (no UVs...): texture.mean_of
             source = textures[0]
             source.factor = rho
-            mean = (colour_texture.mean_colour(source.image, images)
-                    if isinstance(source, colour_texture.TextureRef) else np.zeros(3))
-            rho = _below_one(rho * mean, "its colours", warnings)
+            rho = _below_one(colour_texture.mean_of(source, images), "its colours", warnings)
             return MaterialExport(mat.name, _rgb(rho), _rgb(em), warnings, source)
     else:
         rho, em = np.array(mat.diffuse_color[:3]), np.zeros(3)
@@ -368,21 +368,12 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
     corner_material = np.repeat(face_materials, sizes)
     starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
     by_layer = {}   # UVs per map, read once: several textured materials may share one
-    for i in sorted(textured):
-        tex = materials[i].texture
-        at = corner_material == i
-        if isinstance(tex, colour_texture.AttributeRef):
-            colours = colour_texture.attribute_colours(tex, me, loops, label, warnings)
-            if colours is not None:
-                rho[at] = colours[at]
-            continue
-        layer = me.uv_layers.get(tex.uv_map) if tex.uv_map else next(
-            (l for l in me.uv_layers if l.active_render), me.uv_layers.active)
-        if layer is None:
-            warnings.append(f"{label}: no UV map{' ' + tex.uv_map if tex.uv_map else ''} for the texture of "
-                            f"{materials[i].name}; its mean colour is used")
-            continue
-        if layer.name not in by_layer:
+
+    def uv_map(name):
+        """The exported corners' UVs of a map ("": the active render one), or None."""
+        layer = me.uv_layers.get(name) if name else next((l for l in me.uv_layers if l.active_render),
+                                                         me.uv_layers.active)
+        if layer is not None and layer.name not in by_layer:
             uv = np.empty(len(me.loops) * 2, np.float32)
             layer.data.foreach_get("uv", uv)
             uv = uv.reshape(-1, 2).astype(np.float64)
@@ -391,8 +382,27 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
             # A hair towards each face's middle, where Cycles reads a corner (texture.corner_colours).
             middle = np.repeat(np.add.reduceat(uv, starts) / sizes[:, None], sizes, axis=0)
             by_layer[layer.name] = uv + INSIDE * (middle - uv)
-        uv = by_layer[layer.name]
-        rho[at] = colour_texture.corner_colours(tex, uv[at], images, (label, materials[i].name))
+        return None if layer is None else by_layer[layer.name]
+
+    def values(source, at, material):
+        """(n, 3) of `source` at the corners `at` (or (3,) where it does not vary)."""
+        if isinstance(source, colour_texture.MixRef):
+            return colour_texture.blended(source, values(source.a, at, material), values(source.b, at, material))
+        if isinstance(source, colour_texture.AttributeRef):
+            colours = colour_texture.attribute_colours(source, me, loops, label, warnings)
+            return colours[at] if colours is not None else colour_texture.mean_of(source, images)
+        if isinstance(source, colour_texture.TextureRef):
+            uv = uv_map(source.uv_map)
+            if uv is None:
+                warnings.append(f"{label}: no UV map{' ' + source.uv_map if source.uv_map else ''} for the "
+                                f"texture of {material}; its mean colour is used")
+                return colour_texture.mean_of(source, images)
+            return colour_texture.corner_colours(source, uv[at], images, (label, material))
+        return source
+
+    for i in sorted(textured):
+        at = corner_material == i
+        rho[at] = values(materials[i].texture, at, materials[i].name)
     return _below_one(rho, f"{label}'s texture colours", warnings)
 
 

@@ -14,8 +14,8 @@ import numpy as np
 
 from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
 
-__all__ = ["TextureRef", "AttributeRef", "Images", "colour_source", "image_texture", "corner_colours",
-           "attribute_colours", "mean_colour", "sky_mean"]
+__all__ = ["TextureRef", "AttributeRef", "MixRef", "Images", "colour_source", "image_texture", "corner_colours",
+           "attribute_colours", "blended", "leaves", "varies", "mean_of", "mean_colour", "sky_mean"]
 
 
 @dataclass
@@ -34,9 +34,83 @@ class AttributeRef:
     factor: np.ndarray            # as TextureRef.factor
 
 
-def colour_source(socket, warnings):
-    """TextureRef or AttributeRef for what varies `socket`'s colour across a mesh, else None."""
-    return image_texture(socket, warnings) or colour_attribute(socket, warnings)
+@dataclass
+class MixRef:
+    """A Mix node's colour (or a legacy MixRGB's): `blend` of a and b by `fac`, each side a (3,)
+    colour or a reference that varies over the mesh."""
+    blend: str
+    fac: float
+    a: object
+    b: object
+    clamp: bool                   # the result to [0, 1]
+    factor: np.ndarray            # as TextureRef.factor
+
+
+# Cycles' svm_mix, on colours (K, 3) or (3,); t the factor, clamped to [0, 1].
+BLENDS = {
+    'MIX': lambda a, b, t: (1 - t) * a + t * b,
+    'ADD': lambda a, b, t: a + t * b,
+    'MULTIPLY': lambda a, b, t: a * ((1 - t) + t * b),
+    'SUBTRACT': lambda a, b, t: a - t * b,
+    'SCREEN': lambda a, b, t: 1 - ((1 - t) + t * (1 - b)) * (1 - a),
+    'DIFFERENCE': lambda a, b, t: (1 - t) * a + t * np.abs(a - b),
+    'DARKEN': lambda a, b, t: (1 - t) * a + t * np.minimum(a, b),
+    'LIGHTEN': lambda a, b, t: (1 - t) * a + t * np.maximum(a, b),
+}
+
+
+def colour_source(socket, warnings, depth=0):
+    """TextureRef, AttributeRef or MixRef for what `socket`'s colour comes from, else None (unlinked,
+    or a node not followed). A Mix of colours that do not vary over the mesh does not either
+    (`varies`): mean_of gives it."""
+    return image_texture(socket, warnings) or colour_attribute(socket, warnings) or \
+        colour_mix(socket, warnings, depth)
+
+
+def leaves(source):
+    """The TextureRefs and AttributeRefs a source reads."""
+    if isinstance(source, MixRef):
+        return leaves(source.a) + leaves(source.b)
+    return [source] if isinstance(source, (TextureRef, AttributeRef)) else []
+
+
+def varies(source):
+    return bool(leaves(source))
+
+
+def colour_mix(socket, warnings, depth=0):
+    """MixRef for a Mix node of colours (or a MixRGB) linked straight into `socket`, else None."""
+    if socket is None or not socket.is_linked or depth > 16:
+        return None
+    node = socket.links[0].from_node
+    if node.type == 'MIX_RGB':
+        fac, a, b, clamp = node.inputs["Fac"], node.inputs["Color1"], node.inputs["Color2"], node.use_clamp
+    elif node.type == 'MIX' and node.data_type == 'RGBA':
+        sockets = {s.identifier: s for s in node.inputs}
+        fac, a, b, clamp = sockets["Factor_Float"], sockets["A_Color"], sockets["B_Color"], node.clamp_result
+    else:
+        return None
+    if node.blend_type not in BLENDS:
+        warnings.append(f"{node.name}: a {node.blend_type.title()} mix is not followed; its first colour is used")
+        return None
+    if fac.is_linked:
+        warnings.append(f"{node.name}: its factor is linked; its unlinked value is used")
+
+    def side(s):
+        if not s.is_linked:
+            return np.array(s.default_value[:3], np.float64)
+        source = colour_source(s, warnings, depth + 1)
+        if source is None:
+            warnings.append(f"{node.name}.{s.name} is linked to a node not followed; its unlinked value is used")
+            return np.array(s.default_value[:3], np.float64)
+        return source
+    return MixRef(node.blend_type, float(np.clip(fac.default_value, 0.0, 1.0)), side(a), side(b), clamp, np.ones(3))
+
+
+def blended(ref, a, b):
+    """ref's colour from its sides' values a and b (colours (K, 3) or (3,)), times ref.factor."""
+    out = BLENDS[ref.blend](a, b, ref.fac)
+    return (np.clip(out, 0.0, 1.0) if ref.clamp else out) * ref.factor
 
 
 def colour_attribute(socket, warnings):
@@ -216,6 +290,17 @@ class Images:
         self._pixels.clear()
         self._sampled = {k: v for k, v in self._sampled.items() if k in self._used}
         self._used.clear()
+
+
+def mean_of(source, images):
+    """(3,) the colour a source stands for where it cannot be read at the corners: an image's mean,
+    black for an attribute (as Cycles takes a mesh without it), a Mix of those; times its factor."""
+    if isinstance(source, np.ndarray):
+        return source
+    if isinstance(source, MixRef):
+        return blended(source, mean_of(source.a, images), mean_of(source.b, images))
+    base = mean_colour(source.image, images) if isinstance(source, TextureRef) else np.zeros(3)
+    return base * source.factor
 
 
 def mean_colour(image, images):

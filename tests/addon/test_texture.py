@@ -205,3 +205,45 @@ def test_a_colour_attribute_missing_or_the_bakes_own_output_is_reported(addon):
     sx = addon.export.export_scene()
     assert any("the bake's own output" in w for w in sx.warnings), sx.warnings
     assert sx.materials[0].texture is None and min(sx.materials[0].reflectance) > 0.5   # the unlinked grey
+
+
+# (node, blend, factor, clamp, what A and B are): the texture, a colour attribute or a plain colour
+MIXES = [("ShaderNodeMix", 'MULTIPLY', 0.8, False, ("image", (0.9, 0.5, 0.2))),
+         ("ShaderNodeMixRGB", 'MIX', 0.3, False, ("image", "attribute")),
+         ("ShaderNodeMix", 'SCREEN', 0.6, True, ((0.3, 0.6, 0.1), "image")),
+         ("ShaderNodeMix", 'DIFFERENCE', 1.0, False, ("attribute", "image")),
+         ("ShaderNodeMixRGB", 'LIGHTEN', 0.7, True, ("image", (0.5, 0.5, 0.5)))]
+
+
+@pytest.mark.parametrize("kind, blend, fac, clamp, sides", MIXES, ids=[f"{k[10:]}-{b}" for k, b, *_ in MIXES])
+def test_mixed_colours_reach_the_corners_as_cycles_bakes_them(addon, kind, blend, fac, clamp, sides):
+    """A Mix node (or a legacy MixRGB) between the texture, a colour attribute and plain colours:
+    each corner takes the blend of what its sides give there."""
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    tree = ob.active_material.node_tree
+    image = tree.nodes["Image Texture"]
+    paint = ob.data.color_attributes.new("Paint", 'FLOAT_COLOR', 'CORNER')
+    paint.data.foreach_set("color", np.random.default_rng(5).uniform(0.05, 0.9, len(paint.data) * 4)
+                           .astype(np.float32))
+    attribute = tree.nodes.new("ShaderNodeVertexColor")
+    attribute.layer_name = "Paint"
+    mix = tree.nodes.new(kind)
+    mix.blend_type = blend
+    if kind == "ShaderNodeMix":
+        mix.data_type, mix.clamp_result = 'RGBA', clamp
+        fac_socket, a_socket, b_socket = (next(s for s in mix.inputs if s.identifier == i)
+                                          for i in ("Factor_Float", "A_Color", "B_Color"))
+        out = next(s for s in mix.outputs if s.identifier == "Result_Color")
+    else:
+        mix.use_clamp = clamp
+        fac_socket, a_socket, b_socket, out = mix.inputs["Fac"], mix.inputs["Color1"], mix.inputs["Color2"], mix.outputs[0]
+    fac_socket.default_value = fac
+    for socket, what in zip((a_socket, b_socket), sides):
+        if what == "image":
+            tree.links.new(image.outputs["Color"], socket)
+        elif what == "attribute":
+            tree.links.new(attribute.outputs["Color"], socket)
+        else:
+            socket.default_value = (*what, 1.0)
+    tree.links.new(out, tree.nodes["Diffuse BSDF"].inputs["Color"])
+    corners_as_cycles_bakes_them(addon, ob, f"{kind[10:]} {blend}")
