@@ -225,7 +225,7 @@ def frame_budget(scene):
 
 def _begin(scene, depsgraph, frame_change=False):
     """Export and diff (main thread): (job to solve or None, the base it replaces, info). On a frame
-    change the images are the last export's (texture.Images): an edit, painting included, comes
+    change what was sampled from images is the last export's (texture.Images): an edit comes
     through the depsgraph handler, whose exports read them anew."""
     t0 = time.perf_counter()
     if depsgraph is None:

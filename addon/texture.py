@@ -1,9 +1,10 @@
-"""What varies a diffuse or Principled BSDF's colour across a mesh: a colour attribute, read at the
-face corners, or a colour texture, found in the node tree and sampled at face corners' UVs as Cycles
-samples it (texel centres at (i + 0.5) / size, Linear or Closest, the node's
-extension; an 8-bit sRGB image interpolated as stored and then made linear, as Cycles keeps such
-images compressed), with numpy over all corners at once. The UVs come from a UV Map node, a
-Texture Coordinate node's UV or the default map, through a Mapping node if there is one.
+"""What varies a diffuse or Principled BSDF's colour across a mesh, found in the node tree and taken
+at the face corners with numpy over all of them at once: a colour attribute, read there; a colour
+texture, sampled at their UVs as Cycles samples it (texel centres at (i + 0.5) / size, Linear or
+Closest, the node's extension; an 8-bit sRGB image interpolated as stored and then made linear, as
+Cycles keeps such images compressed), the UVs from a UV Map node, a Texture Coordinate node's UV or
+the default map, through a Mapping node if there is one; Mix nodes of those and plain colours. Also
+an environment image's mean radiance, for the world (sky_mean).
 
 Cycles reads the texture wherever it shades; the engine gets it at the mesh's face corners and
 interpolates it across each face, as the issue asks ("sampled per vertex"): detail finer than the
@@ -46,7 +47,7 @@ class MixRef:
     factor: np.ndarray            # as TextureRef.factor
 
 
-# Cycles' svm_mix, on colours (K, 3) or (3,); t the factor, clamped to [0, 1].
+# Cycles' svm_mix, on colours (K, 3) or (3,); t the factor.
 BLENDS = {
     'MIX': lambda a, b, t: (1 - t) * a + t * b,
     'ADD': lambda a, b, t: a + t * b,
@@ -104,7 +105,10 @@ def colour_mix(socket, warnings, depth=0):
             warnings.append(f"{node.name}.{s.name} is linked to a node not followed; its unlinked value is used")
             return np.array(s.default_value[:3], np.float64)
         return source
-    return MixRef(node.blend_type, float(np.clip(fac.default_value, 0.0, 1.0)), side(a), side(b), clamp, np.ones(3))
+    t = float(fac.default_value)
+    if node.type == 'MIX_RGB' or node.clamp_factor:
+        t = min(max(t, 0.0), 1.0)
+    return MixRef(node.blend_type, t, side(a), side(b), clamp, np.ones(3))
 
 
 def blended(ref, a, b):
