@@ -40,9 +40,9 @@ class MaterialExport:
     reflectance: tuple            # rho, linear RGB
     emission: tuple               # emitted radiance, linear RGB, two-sided
     warnings: list = field(default_factory=list)
-    # What varies the BSDF's colour over a mesh (texture.TextureRef or AttributeRef): reflectance per
-    # face corner (MeshExport.corner_reflectance); `reflectance` is an image's mean, or black for an
-    # attribute (as Cycles takes a mesh without it).
+    # What varies the BSDF's colour over a mesh (texture.TextureRef, AttributeRef or MixRef):
+    # reflectance per face corner (MeshExport.corner_reflectance); `reflectance` is what texture.mean_of
+    # gives where it cannot be read there (an image's mean; black for an attribute, as in Cycles).
     texture: object = None
 
 
@@ -358,8 +358,8 @@ def _is_animated(ob):
 
 
 def _corner_reflectance(me, loops, sizes, face_materials, materials, images, label, warnings):
-    """(K,3) reflectance per exported corner, where a face's material has a texture (sampled at the
-    corners' UVs) or a colour attribute (read there); None when none has."""
+    """(K,3) reflectance per exported corner, where a face's material varies over the mesh (a texture
+    sampled at the corners' UVs, a colour attribute read there, Mix nodes of those); None when none does."""
     textured = {int(i) for i in np.unique(face_materials) if materials[i].texture is not None}
     if not textured:
         return None
