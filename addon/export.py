@@ -240,34 +240,53 @@ def material_values(mat, images=None):
 
 
 def world_radiance(world, warnings=None, images=None):
-    """Background radiance (3,) of a World: its Background node's colour times strength. An
-    Environment Texture there gives its image's mean radiance over the sphere, as a uniform sky
-    (the engine's world has no directions; said in `warnings`)."""
+    """(background radiance (3,), [LightExport suns]) of a World: its Background node's colour times
+    strength. An Environment Texture there gives what its image sends as the engine can take it
+    (texture.sky_lights): its suns as sun lamps, the rest as a uniform sky (said in `warnings`)."""
     warnings = [] if warnings is None else warnings
     if world is None:
-        return np.zeros(3)
+        return np.zeros(3), []
     if world.use_nodes and world.node_tree is not None:
         out = _output_node(world.node_tree, ('OUTPUT_WORLD',))
         node = _linked(out.inputs["Surface"]) if out is not None else None
         if node is None:
-            return np.zeros(3)
+            return np.zeros(3), []
         if node.type == 'BACKGROUND':
             c = node.inputs["Color"]
             strength = float(_input_value(node, "Strength", warnings))
             if not c.is_linked:
-                return np.array(c.default_value[:3]) * strength
+                return np.array(c.default_value[:3]) * strength, []
             source = c.links[0].from_node
             if source.type == 'TEX_ENVIRONMENT' and source.image is not None:
                 images = colour_texture.Images() if images is None else images
-                warnings.append(f"world: {source.image.name}'s mean radiance over the sphere, as a uniform "
-                                "sky (the directions its light comes from are not followed)")
-                return colour_texture.sky_mean(source, images) * strength
+                sky, found = colour_texture.sky_lights(source, images)
+                turn = _environment_turn(source, warnings)
+                suns = [LightExport(f"{world.name} sun {k}", "sun", direction=-_unit(turn @ towards),
+                                    irradiance=irradiance * strength, angle=float(angle))
+                        for k, (towards, irradiance, angle) in enumerate(found)]
+                warnings.append(f"world: {source.image.name} as {len(suns)} sun(s) and a uniform sky of the "
+                                "rest (the directions the rest comes from are not followed)")
+                return sky * strength, suns
             warnings.append(f"world: a {source.type} node on the Background's colour is not followed; "
                             "the world's viewport colour is used")
-            return np.array(world.color[:3]) * strength
+            return np.array(world.color[:3]) * strength, []
         warnings.append(f"world: a {node.type} node is not followed; the world is black")
-        return np.zeros(3)
-    return np.array(world.color[:3], dtype=np.float64)
+        return np.zeros(3), []
+    return np.array(world.color[:3], dtype=np.float64), []
+
+
+def _environment_turn(node, warnings):
+    """(3, 3) from the directions an Environment Texture's image is laid out in to the world's: the
+    inverse of a Mapping node's on its Vector (its rotation and scale; directions have no place)."""
+    vector = node.inputs["Vector"]
+    if not vector.is_linked:
+        return np.eye(3)
+    source = vector.links[0].from_node
+    mapping = colour_texture.mapping_of(source, warnings) if source.type == 'MAPPING' else None
+    if mapping is None:
+        warnings.append(f"{node.name}: directions from a {source.type} node are not followed")
+        return np.eye(3)
+    return np.linalg.pinv(mapping[:, :3])   # a zero scale: pinv rather than a crash
 
 
 def export_materials_of(ob, registry, materials, images=None):
@@ -613,7 +632,8 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
                 lights.append(le)
             else:
                 lights.append(dark(light_values(ev, M, name)))
-        world = world_radiance(scene.world, warnings, images)
+        world, suns = world_radiance(scene.world, warnings, images)
+        lights += suns
     finally:
         images.end_export()
         for me in cages.values():

@@ -4,7 +4,7 @@ texture, sampled at their UVs as Cycles samples it (texel centres at (i + 0.5) /
 Closest, the node's extension; an 8-bit sRGB image interpolated as stored and then made linear, as
 Cycles keeps such images compressed), the UVs from a UV Map node, a Texture Coordinate node's UV or
 the default map, through a Mapping node if there is one; Mix nodes of those and plain colours. Also
-an environment image's mean radiance, for the world (sky_mean).
+what an environment image sends, for the world: its suns and a uniform sky (sky_lights).
 
 Cycles reads the texture wherever it shades; the engine gets it at the mesh's face corners and
 interpolates it across each face, as the issue asks ("sampled per vertex"): detail finer than the
@@ -16,7 +16,7 @@ import numpy as np
 from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
 
 __all__ = ["TextureRef", "AttributeRef", "MixRef", "Images", "colour_source", "image_texture", "corner_colours",
-           "attribute_colours", "blended", "leaves", "varies", "mean_of", "mean_colour", "sky_mean"]
+           "attribute_colours", "blended", "leaves", "varies", "mean_of", "mean_colour", "mapping_of", "sky_lights"]
 
 
 @dataclass
@@ -167,7 +167,7 @@ def image_texture(socket, warnings):
     vector = node.inputs.get("Vector")
     link = vector.links[0] if vector is not None and vector.is_linked else None
     if link is not None and link.from_node.type == 'MAPPING':
-        mapping = _mapping(link.from_node, warnings)
+        mapping = mapping_of(link.from_node, warnings)
         inner = link.from_node.inputs["Vector"]
         link = inner.links[0] if inner.is_linked else None
         if mapping is not None and link is None:   # Cycles maps the point (0, 0, 0): one texel everywhere
@@ -196,7 +196,7 @@ def _rotation(euler):
     return rz @ ry @ rx
 
 
-def _mapping(node, warnings):
+def mapping_of(node, warnings):
     """(3, 4) affine map of a Mapping node (Point, Texture or Vector type), or None (said why)."""
     kind = node.vector_type
     names = ("Location", "Rotation", "Scale") if kind != 'VECTOR' else ("Rotation", "Scale")
@@ -321,25 +321,71 @@ def mean_colour(image, images):
     return images.sampled(image, "mean", None, work)
 
 
-def sky_mean(node, images):
-    """(3,) mean linear radiance of an Environment Texture node's image over the sphere: an
-    equirectangular image's rows weighted by the cosine of their latitude (a mirror ball's pixels
-    alike). Over every texel: a sun a few texels wide can carry most of an HDRI's light."""
+# A texel of an environment brighter than this many times its mean over the sphere belongs to a sun.
+SUN_CONTRAST = 50.0
+SUN_TEXELS = 20000   # more than this many: no sun, but a bright sky
+
+
+def sky_lights(node, images):
+    """What an Environment Texture node's image sends, as the engine can take it: (radiance (3,) of a
+    uniform sky, [(direction towards a sun (3,), its irradiance (3,), angular diameter)]). The
+    suns are the image's texels brighter than SUN_CONTRAST times its mean, in connected patches;
+    the sky, the mean over the sphere of all the others (an equirectangular image's rows weighted
+    by their solid angle; a mirror ball's pixels alike, and no suns). Over every texel: a sun a few
+    texels wide can carry most of an HDRI's light."""
     image = node.image
 
     def work():
         px = images.pixels(image)[:, :, :3]
         if not px.size:
-            return np.zeros(3)
+            return np.zeros(3), []
         if _encoded_srgb(image):
             px = _srgb_to_linear(px)
-        rows = px.mean(1, dtype=np.float64)
         if node.projection != 'EQUIRECTANGULAR':
-            return rows.mean(0)
-        latitude = ((np.arange(len(rows)) + 0.5) / len(rows) - 0.5) * np.pi
-        weight = np.cos(latitude)
-        return (rows * weight[:, None]).sum(0) / weight.sum()
+            return px.reshape(-1, 3).mean(0, dtype=np.float64), []
+        h, w = px.shape[:2]
+        latitude = ((np.arange(h) + 0.5) / h - 0.5) * np.pi
+        solid = np.repeat((2 * np.pi / w) * (np.pi / h) * np.cos(latitude)[:, None], w, axis=1)  # (h, w)
+        luminance = px @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+        bright = luminance > SUN_CONTRAST * (luminance * solid).sum() / solid.sum()
+        suns = []
+        if 0 < bright.sum() <= SUN_TEXELS:
+            longitude = (0.5 - (np.arange(w) + 0.5) / w) * 2 * np.pi   # Cycles' equirectangular u
+            for rows, cols in _patches(bright):
+                lat, lon = latitude[rows], longitude[cols]
+                towards = np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], 1)
+                d = solid[rows, cols]
+                power = luminance[rows, cols] * d
+                centre = (towards * power[:, None]).sum(0)
+                irradiance = (px[rows, cols].astype(np.float64) * d[:, None]).sum(0)
+                suns.append((centre / np.linalg.norm(centre), irradiance, 2.0 * np.sqrt(d.sum() / np.pi)))
+        rest = np.where(bright[:, :, None], 0.0, px.astype(np.float64))
+        return (rest * solid[:, :, None]).sum((0, 1)) / solid.sum(), suns
     return images.sampled(image, ("sky", node.projection), None, work)
+
+
+def _patches(mask):
+    """[(rows, cols)] of each 8-connected patch of True in `mask`, the columns wrapping round (an
+    equirectangular image's left and right edges meet)."""
+    h, w = mask.shape
+    label = np.zeros(mask.shape, np.int32)
+    patches = []
+    for start in zip(*np.nonzero(mask)):
+        if label[start]:
+            continue
+        label[start] = len(patches) + 1
+        todo, members = [start], []
+        while todo:
+            r, c = todo.pop()
+            members.append((r, c))
+            for dr in (-1, 0, 1):
+                for dc in (-1, 0, 1):
+                    rr, cc = r + dr, (c + dc) % w
+                    if 0 <= rr < h and mask[rr, cc] and not label[rr, cc]:
+                        label[rr, cc] = label[start]
+                        todo.append((rr, cc))
+        patches.append(tuple(np.array(x) for x in zip(*members)))
+    return patches
 
 
 def corner_colours(ref, uv, images, user=""):

@@ -267,29 +267,42 @@ def test_text_goes_once_itself_and_once_per_collection_instance(export, empty_sc
     assert len(sx.meshes[0].face_sizes) == len(sx.meshes[1].face_sizes) > 10
 
 
-def test_an_environment_texture_lights_as_its_mean_over_the_sphere(export, empty_scene):
-    """Its rows weighted by the cosine of their latitude: here the upper and lower halves of the
-    sphere, equal in solid angle, average to the mean of their two colours."""
+def sky_world(scene, sun=True, strength=3.0):
+    """A world lit by a 256 x 128 equirectangular image: 0.5 below the horizon, (2, 1, 0.5) above
+    it, and (sun) a 3 x 3-texel sun of 20,000 at latitude 40 degrees, longitude 60 (x towards y)."""
     world = bpy.data.worlds.new("Sky")
     world.use_nodes = True
-    empty_scene.world = world
-    image = bpy.data.images.new("Sky", 64, 32, float_buffer=True)
-    px = np.ones((32, 64, 4), np.float32)
-    px[16:, :, :3] = (2.0, 1.0, 0.5)      # rows count from the bottom: the upper half
-    px[:16, :, :3] = 0.5
-    px[16:, 60:, :3] = 0.0               # a corner of the upper half, near the horizon: dark
+    scene.world = world
+    image = bpy.data.images.new("Sky", 256, 128, float_buffer=True)
+    px = np.ones((128, 256, 4), np.float32)
+    px[64:, :, :3] = (2.0, 1.0, 0.5)      # rows count from the bottom: the upper half
+    px[:64, :, :3] = 0.5
+    if sun:  # Cycles' u = 0.5 - longitude / 2 pi, v = 0.5 + latitude / pi
+        row, col = int((0.5 + 40 / 180) * 128), int((0.5 - 60 / 360) * 256)
+        px[row - 1:row + 2, col - 1:col + 2, :3] = 20000.0
     image.pixels.foreach_set(px.ravel())
     tree = world.node_tree
     env = tree.nodes.new("ShaderNodeTexEnvironment")
     env.image = image
     background = tree.nodes["Background"]
     tree.links.new(env.outputs["Color"], background.inputs["Color"])
-    background.inputs["Strength"].default_value = 3.0
+    background.inputs["Strength"].default_value = strength
+    return world, env
+
+
+def test_an_environment_texture_lights_as_its_suns_and_the_mean_of_the_rest(export, empty_scene):
+    """Its rows weighted by their solid angle: here the upper and lower halves of the sphere, equal
+    in solid angle, average to the mean of their two colours; the sun, brighter than 50 times the
+    mean, goes as a sun lamp where it is, carrying its texels' light."""
+    world, env = sky_world(empty_scene)
     sx = export.export_scene()
-    latitude = ((np.arange(32) + 0.5) / 32 - 0.5) * np.pi
-    w = np.cos(latitude)
-    upper = (np.array([2.0, 1.0, 0.5]) * 60 / 64 * w[16:].sum() + 0.5 * w[:16].sum()) / w.sum()
-    assert np.allclose(sx.world, 3.0 * upper, rtol=1e-6), sx.world
-    assert any("uniform sky" in w for w in sx.warnings), sx.warnings
+    assert np.allclose(sx.world, 3.0 * np.array([1.25, 0.75, 0.5]), rtol=2e-3), sx.world   # 9 texels less
+    [sun] = sx.lights
+    lat, lon = np.radians(40), np.radians(60)
+    towards = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
+    assert np.degrees(np.arccos(-sun.direction @ towards)) < 1.5
+    texel = (2 * np.pi / 256) * (np.pi / 128) * np.cos(lat)
+    assert np.allclose(sun.irradiance, 3.0 * 20000 * 9 * texel, rtol=0.02), sun.irradiance
+    assert any("1 sun(s) and a uniform sky" in w for w in sx.warnings), sx.warnings
     env.image = None
-    assert any("ShaderNodeTexEnvironment" in w or "TEX_ENVIRONMENT" in w for w in export.export_scene().warnings)
+    assert any("TEX_ENVIRONMENT" in w for w in export.export_scene().warnings)
