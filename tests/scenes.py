@@ -115,5 +115,6 @@ def changing_room(state=ROOM_STATE, patch_size=0.0, smooth=False):
         refine = dict(refine="catmull_clark", level=2) if smooth else dict(refine="bilinear", patch_size=patch_size)
         cube_id = cube.add_to(scene, **refine, transform=transform, dynamic=True, visible=state["cube_visible"])
     scene.add_point_light(*state["point"], 0.05)
-    scene.set_world(state["world"])
+    world = np.asarray(state["world"], float)
+    scene.set_world_map(world) if world.ndim == 3 else scene.set_world(world)
     return scene, ids + ([cube_id] if cube_id is not None else []), cube_id

@@ -31,6 +31,19 @@ std::vector<dvec3> points(const Array<double>& a, const char* what) {
   return out;
 }
 
+constexpr const char* WORLD_MAP_DOC =
+    "The world's radiance by direction: (H, W, 3), equirectangular in Cycles' layout, rows from the bottom";
+
+WorldMap world_map(const Array<double>& a) {
+  if (a.ndim() != 3 || a.shape(2) != 3 || a.shape(0) < 1 || a.shape(1) < 1)
+    throw std::invalid_argument("a world map must be an (H, W, 3) array");
+  WorldMap m;
+  m.height = int(a.shape(0)), m.width = int(a.shape(1));
+  m.texels.resize(size_t(m.width) * m.height);
+  std::memcpy(m.texels.data(), a.data(), sizeof(double) * a.size());
+  return m;
+}
+
 Refinement refinement(const std::string& name) {
   if (name == "none") return Refinement::None;
   if (name == "bilinear") return Refinement::Bilinear;
@@ -234,7 +247,9 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("position"), py::arg("u_axis"), py::arg("v_axis"), py::arg("radiance"),
            py::arg("shape") = "rect",
            "One-sided emitter along -(u x v); u, v are half extents (disc: radius |u|)")
-      .def("set_world", [](SceneDesc& s, std::array<double, 3> radiance) { s.world = vec3(radiance); })
+      .def("set_world", [](SceneDesc& s, std::array<double, 3> radiance) { s.world = WorldMap::uniform(vec3(radiance)); })
+      .def("set_world_map", [](SceneDesc& s, const Array<double>& texels) { s.world = world_map(texels); },
+           py::arg("texels"), WORLD_MAP_DOC)
       .def_property_readonly("mesh_count", [](const SceneDesc& s) { return s.meshes.size(); });
 
   py::class_<Solver>(m, "Solver")
@@ -300,6 +315,8 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("shape") = "rect")
       .def("set_world", [](Solver& s, std::array<double, 3> radiance) { s.set_world(vec3(radiance)); },
            py::arg("radiance"))
+      .def("set_world_map", [](Solver& s, const Array<double>& texels) { s.set_world_map(world_map(texels)); },
+           py::arg("texels"), WORLD_MAP_DOC)
       .def("cancel", &Solver::cancel)
       .def("record_rays", &Solver::record_rays, py::arg("stride") = 1,
            "Benchmark hook: keep every stride-th batch of visibility rays traced from now on")

@@ -214,8 +214,14 @@ void Solver::Impl::gather_direct_change(const std::vector<Source>& sources) {
   touched.assign(mesh.points.size(), 1);
 }
 
-void Solver::Impl::change_world(const dvec3& world) {
-  gather_direct_change({world_source(world - scene.world, settings.samples_direct)});
+void Solver::Impl::change_world(const WorldMap& world) {
+  // A uniform sky's change is one uniform sky; a map's, the old one taken back and the new one sent.
+  if (world.texels.size() == 1 && scene.world.texels.size() == 1)
+    gather_direct_change(
+        {world_source(WorldMap::uniform(world.texels[0] - scene.world.texels[0]), settings.samples_direct)});
+  else
+    gather_direct_change({world_source(scene.world.scaled(-1.0), settings.samples_direct),
+                          world_source(world, settings.samples_direct)});
   scene.world = world;
 }
 
@@ -237,7 +243,7 @@ bool same_but_colour(const Lamp& a, const Lamp& b) {
 bool Solver::Impl::scale_sole_lamp(int index, const Lamp& lamp) {
   const Lamp& old = scene.lamps[index];
   // Colours are validated non-negative: a zero channel sum is no light.
-  if (!same_but_colour(old, lamp) || channel_sum(scene.world) > 0 || !(channel_sum(old.color) > 0)) return false;
+  if (!same_but_colour(old, lamp) || scene.world.lit() || !(channel_sum(old.color) > 0)) return false;
   for (size_t i = 0; i < scene.lamps.size(); ++i)
     if (int(i) != index && channel_sum(scene.lamps[i].color) > 0) return false;
   for (const Material& m : scene.materials)

@@ -105,16 +105,17 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
   });
 }
 
-void gather_world(const dvec3& radiance, int samples, int receiver, const ReceiverPoint& point,
+void gather_world(const WorldMap& sky, int samples, int receiver, const ReceiverPoint& point,
                   OcclusionBatch& batch) {
   dvec3 t, b;
   orthonormal_basis(point.normal, t, b);
-  // Cosine-weighted directions on each side: every unoccluded ray carries radiance / samples.
+  // Cosine-weighted directions on each side: every unoccluded ray carries the sky's radiance there
+  // over samples (a map's light varies slowly once its suns are lamps: the add-on's export).
   for (int side = 0; side < 2; ++side) {
     dvec3 n = side == 0 ? point.normal : -point.normal;
     disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
       dvec3 dir = u * t + v * b + std::sqrt(std::max(0.0, 1.0 - u * u - v * v)) * n;
-      batch.to_infinity(receiver, point.position, point.normal, dir, side == 0, w * radiance);
+      batch.to_infinity(receiver, point.position, point.normal, dir, side == 0, w * sky.at(dir));
     });
   }
 }

@@ -12,7 +12,7 @@ namespace radiosity {
 // rays used for lamps with a size (soft shadows) and for the sky per side.
 void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoint& point,
                  OcclusionBatch& batch);
-void gather_world(const dvec3& radiance, int samples, int receiver, const ReceiverPoint& point,
+void gather_world(const WorldMap& sky, int samples, int receiver, const ReceiverPoint& point,
                   OcclusionBatch& batch);
 
 // Rectangle and disc lamps are one-sided emitting polygons: they shoot like a patch would.

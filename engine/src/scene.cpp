@@ -1,5 +1,6 @@
 #include "radiosity/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -91,8 +92,41 @@ void SceneDesc::validate() const {
     if (l.type == Lamp::Type::Rect && glm::length(glm::cross(l.u_axis, l.v_axis)) == 0)
       fail(who + ": rectangle has zero area");
   }
-  if (!finite(world) || world.x < 0 || world.y < 0 || world.z < 0)
-    fail("world colour must be finite and non-negative");
+  if (world.width < 1 || world.height < 1 || world.texels.size() != size_t(world.width) * world.height)
+    fail("world map: its texels are not its width times its height");
+  for (const dvec3& t : world.texels)
+    if (!finite(t) || t.x < 0 || t.y < 0 || t.z < 0) fail("world colour must be finite and non-negative");
+}
+
+WorldMap WorldMap::uniform(const dvec3& radiance) {
+  WorldMap m;
+  m.texels[0] = radiance;
+  return m;
+}
+
+dvec3 WorldMap::at(const dvec3& d) const {
+  if (texels.size() == 1) return texels[0];
+  constexpr double kPi = 3.14159265358979323846;
+  double x = (0.5 - std::atan2(d.y, d.x) / (2 * kPi)) * width - 0.5;
+  double y = (0.5 + std::asin(std::clamp(d.z, -1.0, 1.0)) / kPi) * height - 0.5;
+  double fx = std::floor(x), fy = std::floor(y);
+  double tx = x - fx, ty = y - fy;
+  int c0 = ((int(fx) % width) + width) % width, c1 = (c0 + 1) % width;  // columns wrap round
+  int r0 = std::clamp(int(fy), 0, height - 1), r1 = std::clamp(int(fy) + 1, 0, height - 1);
+  auto texel = [&](int c, int r) { return texels[size_t(r) * width + c]; };
+  return (1 - ty) * ((1 - tx) * texel(c0, r0) + tx * texel(c1, r0)) + ty * ((1 - tx) * texel(c0, r1) + tx * texel(c1, r1));
+}
+
+bool WorldMap::lit() const {
+  for (const dvec3& t : texels)
+    if (t.x + t.y + t.z > 0) return true;
+  return false;
+}
+
+WorldMap WorldMap::scaled(double factor) const {
+  WorldMap m = *this;
+  for (dvec3& t : m.texels) t = factor * t;
+  return m;
 }
 
 }  // namespace radiosity

@@ -147,7 +147,7 @@ std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector
       l.color *= scale;
       out.push_back(lamp_source(l, settings.samples_direct));
     }
-    if (channel_sum(scene.world) > 0) out.push_back(world_source(scale * scene.world, settings.samples_direct));
+    if (scene.world.lit()) out.push_back(world_source(scene.world.scaled(scale), settings.samples_direct));
   }
   std::vector<CornerUnshot> emission(mesh.patches.size());
   for (size_t p = 0; p < mesh.patches.size(); ++p)
@@ -351,7 +351,8 @@ void Solver::set_lamp(int index, const Lamp& lamp) {
   impl_->pending.lamps[index] = lamp;
 }
 
-void Solver::set_world(const dvec3& radiance) { impl_->pending.world = radiance; }
+void Solver::set_world(const dvec3& radiance) { impl_->pending.world = WorldMap::uniform(radiance); }
+void Solver::set_world_map(WorldMap sky) { impl_->pending.world = std::move(sky); }
 const SolveStats& Solver::stats() const { return impl_->stats; }
 
 void Solver::record_rays(int stride) { impl_->vis->record(stride); }

@@ -68,7 +68,7 @@ struct Solver::Impl {
     std::map<int, MeshDesc> meshes;
     std::map<int, Material> materials;
     std::map<int, Lamp> lamps;
-    std::optional<dvec3> world;
+    std::optional<WorldMap> world;
   } pending;
 
   Impl(SceneDesc s, const Settings& st);
@@ -138,7 +138,7 @@ struct Solver::Impl {
   void add(const SceneDesc& more);  // Solver::add
   void restart();  // forgets all light gathered and shot: the next solve() starts from the lamps
   void gather_direct_change(const std::vector<Source>& sources);  // everywhere, then applied
-  void change_world(const dvec3& world);
+  void change_world(const WorldMap& world);
   void change_lamp(int index, const Lamp& lamp);
   bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
   void change_material(int index, const Material& material);

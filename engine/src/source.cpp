@@ -63,10 +63,10 @@ Source lamp_source(const Lamp& lamp, int samples) {
   return s;
 }
 
-Source world_source(const dvec3& radiance, int samples) {
+Source world_source(WorldMap sky, int samples) {
   Source s;
   s.kind = Source::Kind::World;
-  s.world = radiance;
+  s.world = std::move(sky);
   s.samples = samples;
   return s;
 }

@@ -12,7 +12,7 @@ namespace radiosity {
 struct Source {
   enum class Kind { Lamp, World, Shot } kind = Kind::Lamp;
   Lamp lamp;           // point, spot or sun (area lamps are shots); in the patch mesh's frame
-  dvec3 world{0.0};    // Kind::World: uniform sky radiance
+  WorldMap world;      // Kind::World: the sky's radiance by direction
   Shot shot;
   int samples = 0;     // lamps and world
   int shooter = -1;    // the shooter (cluster) whose patches shoot; -1 for lamps and the world
@@ -26,7 +26,7 @@ struct Source {
 
 // `lamp` in the patch mesh's frame; rectangle and disc lamps become shots.
 Source lamp_source(const Lamp& lamp, int samples);
-Source world_source(const dvec3& radiance, int samples);
+Source world_source(WorldMap sky, int samples);
 Source shot_source(Shot shot, int shooter, const Sphere& bounds);
 
 }  // namespace radiosity

@@ -40,6 +40,10 @@ def translation(offset):
     return t
 
 
+# A world map (rows from the bottom): a blue sky over brown ground, brighter towards -x (u = 0, 1).
+SKY_MAP = np.concatenate([np.full((8, 16, 3), (0.04, 0.03, 0.02)), np.full((8, 16, 3), (0.05, 0.08, 0.15))])
+SKY_MAP *= 1 + np.abs(np.linspace(-1, 1, 16))[None, :, None]
+
 # Each step: the change as set_* calls, and the state a fresh solve is built from.
 STEPS = [
     ("move", dict(cube=(0.0, -0.2, 0.3)), lambda s, cube: s.set_transform(cube, translation((0.0, -0.2, 0.3)))),
@@ -50,6 +54,7 @@ STEPS = [
     ("emission", dict(lamp_emission=9.0), lambda s, cube: s.set_material(LAMP_MATERIAL, LAMP_RHO, (9.0,) * 3)),
     ("lamp", dict(point=((-0.5, 0.2, 1.2), (1.0, 4.0, 2.0))),
      lambda s, cube: s.set_point_light(0, (-0.5, 0.2, 1.2), (1.0, 4.0, 2.0), 0.05)),
+    ("world map", dict(world=SKY_MAP), lambda s, cube: s.set_world_map(SKY_MAP)),
     ("world", dict(world=(0.2, 0.1, 0.0)), lambda s, cube: s.set_world((0.2, 0.1, 0.0))),
     ("vanish", dict(cube_visible=False), lambda s, cube: s.set_visible(cube, False)),
     ("emission while hidden", dict(cube_emission=5.0),

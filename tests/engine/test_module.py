@@ -62,6 +62,45 @@ def test_sun_and_world():
     assert radiance_near(solver, obj, (0, 0, 0))[1][0] == pytest.approx(RHO * 0.4, rel=1e-3)
 
 
+def sky_and_ground(height=32, width=8, sky=(0.6, 0.3, 0.2), ground=(0.05, 0.1, 0.2)):
+    """A world map (rows from the bottom): `sky` above the horizon, `ground` below."""
+    texels = np.empty((height, width, 3))
+    texels[height // 2:], texels[:height // 2] = sky, ground
+    return texels
+
+
+def upward_light(texels):
+    """What an upward surface takes of a world map whose rows are each one colour: 2 times the
+    integral over the upper hemisphere's latitudes t of L(t) sin t cos t, L read as the engine reads
+    it (bilinear between row centres, clamped at the poles)."""
+    h = len(texels)
+    t = (np.arange(200000) + 0.5) / 200000 * (np.pi / 2)
+    y = (0.5 + t / np.pi) * h - 0.5
+    r0 = np.clip(np.floor(y).astype(int), 0, h - 1)
+    r1 = np.clip(np.floor(y).astype(int) + 1, 0, h - 1)
+    f = (y - np.floor(y))[:, None]
+    light = (1 - f) * texels[r0, 0] + f * texels[r1, 0]
+    return 2 * (light * (np.sin(t) * np.cos(t))[:, None]).sum(0) * (np.pi / 2) / len(t)
+
+
+def test_a_world_map_lights_by_direction():
+    solver, obj = solve_floor(lambda s: s.set_world_map(np.full((4, 8, 3), 0.4)))
+    assert radiance_near(solver, obj, (0, 0, 0))[1][0] == pytest.approx(RHO * 0.4, rel=1e-3)
+    texels = sky_and_ground()
+    solver, obj = solve_floor(lambda s: s.set_world_map(texels))
+    expected = RHO * upward_light(texels)
+    # the sky alone but for the half row either side of the horizon, where the map blends it with the ground
+    assert expected == pytest.approx(RHO * np.array([0.6, 0.3, 0.2]), rel=0.01)
+    assert radiance_near(solver, obj, (0, 0, 0))[1] == pytest.approx(expected, rel=2e-3)
+    with pytest.raises(ValueError, match="world map"):
+        engine.Scene().set_world_map(np.ones((4, 8)))
+    with pytest.raises(ValueError, match="non-negative"):
+        scene, floor = floor_scene()
+        scene.set_world_map(-texels)
+        floor.add_to(scene)
+        engine.Solver(scene, engine.Settings.preset("draft"))
+
+
 def test_spot_lamp_cone():
     solver, obj = solve_floor(lambda s: s.add_spot_light((0, 0, 2), (0, 0, -1), (8, 8, 8), spot_size=math.radians(60),
                                                          spot_blend=0.0))

@@ -66,11 +66,24 @@ struct Lamp {
   dvec3 v_axis{0.0, 1.0, 0.0};
 };
 
+// The world's radiance by direction: an equirectangular image in Cycles' layout (along a row
+// u = 0.5 - atan2(y, x) / 2 pi, up the rows from the bottom v = 0.5 + asin(z) / pi), read
+// bilinearly, the columns wrapping round. One texel: a uniform sky.
+struct WorldMap {
+  int width = 1, height = 1;
+  std::vector<dvec3> texels{dvec3(0.0)};
+
+  static WorldMap uniform(const dvec3& radiance);
+  dvec3 at(const dvec3& direction) const;  // `direction` of unit length
+  bool lit() const;                         // some texel sends light
+  WorldMap scaled(double factor) const;
+};
+
 struct SceneDesc {
   std::vector<Material> materials;
   std::vector<MeshDesc> meshes;
   std::vector<Lamp> lamps;
-  dvec3 world{0.0};  // uniform environment radiance
+  WorldMap world;
 
   // Throws std::invalid_argument naming the object and the fault for input the engine cannot take
   // (NaN/inf, bad indices, reflectance outside [0, 1), negative emission).

@@ -70,6 +70,7 @@ class Solver {
   void set_material(int index, const Material& material);
   void set_lamp(int index, const Lamp& lamp);  // same type as before
   void set_world(const dvec3& radiance);
+  void set_world_map(WorldMap sky);
   // Incremental update (the paper's negative and positive shooting): changes only what the pending
   // changes affect, then shoots until the residual is below the threshold, as solve() does. Before
   // the first solve() it just applies the changes. Cancelling stops the shooting, not the update.
