@@ -234,8 +234,9 @@ def diff_exports(old, new, engine):
         if not all(_same(x, y) if isinstance(x, np.ndarray) or isinstance(y, np.ndarray) else x == y
                    for x, y in zip(ca[1], cb[1])):
             calls.append(cb)
-    if not _same(old.world, new.world):
-        calls.append(("set_world", (np.asarray(new.world, np.float64),)))
+    if not (_same(old.world, new.world) and _same(old.world_map, new.world_map)):
+        calls.append(("set_world_map", (np.asarray(new.world_map, np.float64),)) if new.world_map is not None
+                     else ("set_world", (np.asarray(new.world, np.float64),)))
     if (len(new.meshes), len(new.materials), len(new.lights)) != (len(old.meshes), len(old.materials),
                                                                    len(old.lights)):
         calls.append(("add", (exporter.to_engine(new, engine, after=old)[0],)))

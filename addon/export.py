@@ -95,9 +95,10 @@ class SceneExport:
     meshes: list
     materials: list
     lights: list
-    world: np.ndarray             # (3,) background radiance
+    world: np.ndarray             # (3,) background radiance (a world map's mean)
     frame: int = 0
     warnings: list = field(default_factory=list)
+    world_map: np.ndarray = None  # (H, W, 3) the world's radiance by direction (Solver.set_world_map), or None
 
     def material_index(self, name):
         return [m.name for m in self.materials].index(name)
@@ -240,39 +241,44 @@ def material_values(mat, images=None):
 
 
 def world_radiance(world, warnings=None, images=None):
-    """(background radiance (3,), [LightExport suns]) of a World: its Background node's colour times
-    strength. An Environment Texture there gives what its image sends as the engine can take it
-    (texture.sky_lights): its suns as sun lamps, the rest as a uniform sky (said in `warnings`)."""
+    """(background radiance (3,), world map (H, W, 3) or None, [LightExport suns]) of a World: its
+    Background node's colour times strength. An Environment Texture there gives what its image sends
+    as the engine can take it (texture.sky_lights): its suns as sun lamps, the rest as a map."""
     warnings = [] if warnings is None else warnings
     if world is None:
-        return np.zeros(3), []
+        return np.zeros(3), None, []
     if world.use_nodes and world.node_tree is not None:
         out = _output_node(world.node_tree, ('OUTPUT_WORLD',))
         node = _linked(out.inputs["Surface"]) if out is not None else None
         if node is None:
-            return np.zeros(3), []
+            return np.zeros(3), None, []
         if node.type == 'BACKGROUND':
             c = node.inputs["Color"]
             strength = float(_input_value(node, "Strength", warnings))
             if not c.is_linked:
-                return np.array(c.default_value[:3]) * strength, []
+                return np.array(c.default_value[:3]) * strength, None, []
             source = c.links[0].from_node
             if source.type == 'TEX_ENVIRONMENT' and source.image is not None:
                 images = colour_texture.Images() if images is None else images
-                sky, found = colour_texture.sky_lights(source, images)
+                sky, rest, found = colour_texture.sky_lights(source, images)
                 turn = _environment_turn(source, warnings)
                 suns = [LightExport(f"{world.name} sun {k}", "sun", direction=-_unit(turn @ towards),
                                     irradiance=irradiance * strength, angle=float(angle))
                         for k, (towards, irradiance, angle) in enumerate(found)]
-                warnings.append(f"world: {source.image.name} as {len(suns)} sun(s) and a uniform sky of the "
-                                "rest (the directions the rest comes from are not followed)")
-                return sky * strength, suns
+                if rest is not None and not np.allclose(turn, np.eye(3)):
+                    warnings.append(f"world: {source.image.name} turned by a Mapping node: its suns turn, its "
+                                    "sky goes as a uniform sky of its mean")
+                    rest = None
+                warnings.append(f"world: {source.image.name} as {len(suns)} sun lamp(s) and " +
+                                (f"a {rest.shape[1]} x {rest.shape[0]} map of the rest" if rest is not None
+                                 else "a uniform sky of the rest"))
+                return sky * strength, None if rest is None else rest * strength, suns
             warnings.append(f"world: a {source.type} node on the Background's colour is not followed; "
                             "the world's viewport colour is used")
-            return np.array(world.color[:3]) * strength, []
+            return np.array(world.color[:3]) * strength, None, []
         warnings.append(f"world: a {node.type} node is not followed; the world is black")
-        return np.zeros(3), []
-    return np.array(world.color[:3], dtype=np.float64), []
+        return np.zeros(3), None, []
+    return np.array(world.color[:3], dtype=np.float64), None, []
 
 
 def _environment_turn(node, warnings):
@@ -632,7 +638,7 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
                 lights.append(le)
             else:
                 lights.append(dark(light_values(ev, M, name)))
-        world, suns = world_radiance(scene.world, warnings, images)
+        world, world_map, suns = world_radiance(scene.world, warnings, images)
         lights += suns
     finally:
         images.end_export()
@@ -640,7 +646,7 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
             bpy.data.meshes.remove(me)
     for m in materials:
         warnings += [f"material {m.name}: {w}" for w in m.warnings]
-    return SceneExport(meshes, materials, lights, world, scene.frame_current, warnings)
+    return SceneExport(meshes, materials, lights, world, scene.frame_current, warnings, world_map)
 
 
 # ----------------------------------------------------------------------------- engine feed
@@ -675,5 +681,8 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
             visible=m.visible, smooth=m.smooth, corner_reflectance=m.corner_reflectance)
     for l in sx.lights[first[2]:]:
         getattr(s, f"add_{l.kind}_light")(*lamp_args(l))
-    s.set_world(np.asarray(sx.world, np.float64))
+    if sx.world_map is not None:
+        s.set_world_map(np.asarray(sx.world_map, np.float64))
+    else:
+        s.set_world(np.asarray(sx.world, np.float64))
     return s, ids

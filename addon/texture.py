@@ -326,23 +326,29 @@ SUN_CONTRAST = 50.0
 SUN_TEXELS = 20000   # more than this many: no sun, but a bright sky
 
 
+# The sky without its suns goes to the engine at most this many texels wide (and half as high): its
+# light varies slowly, and the engine reads it at every ray to the sky.
+SKY_MAP_WIDTH = 128
+
+
 def sky_lights(node, images):
-    """What an Environment Texture node's image sends, as the engine can take it: (radiance (3,) of a
-    uniform sky, [(direction towards a sun (3,), its irradiance (3,), angular diameter)]). The
-    suns are the image's texels brighter than SUN_CONTRAST times its mean, in connected patches;
-    the sky, the mean over the sphere of all the others (an equirectangular image's rows weighted
-    by their solid angle; a mirror ball's pixels alike, and no suns). Over every texel: a sun a few
-    texels wide can carry most of an HDRI's light."""
+    """What an Environment Texture node's image sends, as the engine can take it: (its mean radiance
+    over the sphere without its suns (3,), the same by direction (H, W, 3) or None, [(direction
+    towards a sun (3,), its irradiance (3,), angular diameter)]). The suns are the texels brighter
+    than SUN_CONTRAST times the image's mean, in connected patches; the rest goes in blocks of
+    texels averaged by solid angle, SKY_MAP_WIDTH across at most (an equirectangular image's: a
+    mirror ball's is its mean, with no suns). Over every texel: a sun a few texels wide can carry
+    most of an HDRI's light."""
     image = node.image
 
     def work():
         px = images.pixels(image)[:, :, :3]
         if not px.size:
-            return np.zeros(3), []
+            return np.zeros(3), None, []
         if _encoded_srgb(image):
             px = _srgb_to_linear(px)
         if node.projection != 'EQUIRECTANGULAR':
-            return px.reshape(-1, 3).mean(0, dtype=np.float64), []
+            return px.reshape(-1, 3).mean(0, dtype=np.float64), None, []
         h, w = px.shape[:2]
         latitude = ((np.arange(h) + 0.5) / h - 0.5) * np.pi
         solid = np.repeat((2 * np.pi / w) * (np.pi / h) * np.cos(latitude)[:, None], w, axis=1)  # (h, w)
@@ -359,8 +365,12 @@ def sky_lights(node, images):
                 centre = (towards * power[:, None]).sum(0)
                 irradiance = (px[rows, cols].astype(np.float64) * d[:, None]).sum(0)
                 suns.append((centre / np.linalg.norm(centre), irradiance, 2.0 * np.sqrt(d.sum() / np.pi)))
-        rest = np.where(bright[:, :, None], 0.0, px.astype(np.float64))
-        return (rest * solid[:, :, None]).sum((0, 1)) / solid.sum(), suns
+        rest = np.where(bright[:, :, None], 0.0, px.astype(np.float64)) * solid[:, :, None]
+        step = max(1, -(-w // SKY_MAP_WIDTH))
+        rows, cols = np.arange(0, h, step), np.arange(0, w, step)
+        blocks = np.add.reduceat(np.add.reduceat(rest, rows, 0), cols, 1)
+        weights = np.add.reduceat(np.add.reduceat(solid, rows, 0), cols, 1)
+        return rest.sum((0, 1)) / solid.sum(), blocks / weights[:, :, None], suns
     return images.sampled(image, ("sky", node.projection), None, work)
 
 

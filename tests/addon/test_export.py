@@ -269,13 +269,15 @@ def test_text_goes_once_itself_and_once_per_collection_instance(export, empty_sc
 
 def sky_world(scene, sun=True, strength=3.0):
     """A world lit by a 256 x 128 equirectangular image: 0.5 below the horizon, (2, 1, 0.5) above
-    it, and (sun) a 3 x 3-texel sun of 20,000 at latitude 40 degrees, longitude 60 (x towards y)."""
+    it but for a quarter (0.5, 1, 2) round +y, and (sun) a 3 x 3-texel sun of 20,000 at latitude 40
+    degrees, longitude 60 (x towards y)."""
     world = bpy.data.worlds.new("Sky")
     world.use_nodes = True
     scene.world = world
     image = bpy.data.images.new("Sky", 256, 128, float_buffer=True)
     px = np.ones((128, 256, 4), np.float32)
     px[64:, :, :3] = (2.0, 1.0, 0.5)      # rows count from the bottom: the upper half
+    px[64:, 32:96, :3] = (0.5, 1.0, 2.0)  # longitudes 45-135 degrees: u = 0.5 - longitude / 360
     px[:64, :, :3] = 0.5
     if sun:  # Cycles' u = 0.5 - longitude / 2 pi, v = 0.5 + latitude / pi
         row, col = int((0.5 + 40 / 180) * 128), int((0.5 - 60 / 360) * 256)
@@ -296,13 +298,14 @@ def test_an_environment_texture_lights_as_its_suns_and_the_mean_of_the_rest(expo
     mean, goes as a sun lamp where it is, carrying its texels' light."""
     world, env = sky_world(empty_scene)
     sx = export.export_scene()
-    assert np.allclose(sx.world, 3.0 * np.array([1.25, 0.75, 0.5]), rtol=2e-3), sx.world   # 9 texels less
+    upper = (3 * np.array([2.0, 1.0, 0.5]) + np.array([0.5, 1.0, 2.0])) / 4
+    assert np.allclose(sx.world, 3.0 * (upper + 0.5) / 2, rtol=2e-3), sx.world   # 9 texels less
     [sun] = sx.lights
     lat, lon = np.radians(40), np.radians(60)
     towards = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
     assert np.degrees(np.arccos(-sun.direction @ towards)) < 1.5
     texel = (2 * np.pi / 256) * (np.pi / 128) * np.cos(lat)
     assert np.allclose(sun.irradiance, 3.0 * 20000 * 9 * texel, rtol=0.02), sun.irradiance
-    assert any("1 sun(s) and a uniform sky" in w for w in sx.warnings), sx.warnings
+    assert any("1 sun lamp(s) and a 128 x 64 map of the rest" in w for w in sx.warnings), sx.warnings
     env.image = None
     assert any("TEX_ENVIRONMENT" in w for w in export.export_scene().warnings)
