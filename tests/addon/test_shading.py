@@ -161,7 +161,7 @@ def test_an_hdri_sun_lights_and_shadows_as_in_cycles(export):
     assert 100 <= shade.sum() <= 400, shade.sum()   # the box's shadow (and footprint)
     err = reference.relative_rms(direct_light(export, floor), ref)
     print(f"\n  floor round a box under an HDRI's sun and sky: {100 * err:.3f}% RMS against Cycles", end="")
-    # 1.1%. With the sky of the rest uniform, 2.8% (the floor sees only its upper half in Cycles); with
+    # 1.1%. With the sky of the rest uniform, 2.4% (the floor sees only its upper half in Cycles); with
     # the sun spread over it too (no sun lamp), 64%: the lit floor at 0.40 of Cycles, the shadow 3-8 times.
     assert err < 0.02
     # The box's sides face different parts of the sky (a quarter of it bluer, round +y), each lit by
