@@ -266,9 +266,10 @@ def world_radiance(world, warnings=None, images=None):
                                     irradiance=irradiance * strength, angle=float(angle))
                         for k, (towards, irradiance, angle) in enumerate(found)]
                 if rest is not None and not np.allclose(turn, np.eye(3)):
-                    warnings.append(f"world: {source.image.name} turned by a Mapping node: its suns turn, its "
-                                    "sky goes as a uniform sky of its mean")
-                    rest = None
+                    rest = _turned_about_z(rest, turn)
+                    if rest is None:
+                        warnings.append(f"world: {source.image.name} turned by a Mapping node other than about "
+                                        "z: its suns turn, its sky goes as a uniform sky of its mean")
                 warnings.append(f"world: {source.image.name} as {len(suns)} sun lamp(s) and " +
                                 (f"a {rest.shape[1]} x {rest.shape[0]} map of the rest" if rest is not None
                                  else "a uniform sky of the rest"))
@@ -289,10 +290,25 @@ def _environment_turn(node, warnings):
         return np.eye(3)
     source = vector.links[0].from_node
     mapping = colour_texture.mapping_of(source, warnings) if source.type == 'MAPPING' else None
-    if mapping is None:
-        warnings.append(f"{node.name}: directions from a {source.type} node are not followed")
+    inner = source.inputs["Vector"].links[0] if mapping is not None and source.inputs["Vector"].is_linked else None
+    if inner is None or inner.from_node.type != 'TEX_COORD' or inner.from_socket.identifier != 'Generated':
+        warnings.append(f"{node.name}: directions from a {source.type} node are not followed (a Mapping "
+                        "node's, from a Texture Coordinate's Generated, are)")
         return np.eye(3)
     return np.linalg.pinv(mapping[:, :3])   # a zero scale: pinv rather than a crash
+
+
+def _turned_about_z(sky, turn):
+    """The world map `sky` (H, W, 3) laid out in the image's directions, in the world's when `turn`
+    is a turn about z (by shifting its columns, interpolated); None when it is another."""
+    if not (np.allclose(turn[2], (0, 0, 1)) and np.allclose(turn[:2, 2], 0)
+            and np.allclose(turn[:2, :2] @ turn[:2, :2].T, np.eye(2)) and np.linalg.det(turn[:2, :2]) > 0):
+        return None
+    # A world direction of longitude a reads the image at a - angle: u = 0.5 - longitude / 2 pi.
+    shift = np.arctan2(turn[1, 0], turn[0, 0]) / (2 * np.pi) * sky.shape[1]
+    whole = int(np.floor(shift))
+    part = shift - whole
+    return (1 - part) * np.roll(sky, -whole, axis=1) + part * np.roll(sky, -whole - 1, axis=1)
 
 
 def export_materials_of(ob, registry, materials, images=None):

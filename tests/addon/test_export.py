@@ -267,10 +267,11 @@ def test_text_goes_once_itself_and_once_per_collection_instance(export, empty_sc
     assert len(sx.meshes[0].face_sizes) == len(sx.meshes[1].face_sizes) > 10
 
 
-def sky_world(scene, sun=True, strength=3.0):
+def sky_world(scene, sun=True, strength=3.0, turn=0.0):
     """A world lit by a 256 x 128 equirectangular image: 0.5 below the horizon, (2, 1, 0.5) above
     it but for a quarter (0.5, 1, 2) round +y, and (sun) a 3 x 3-texel sun of 20,000 at latitude 40
-    degrees, longitude 60 (x towards y)."""
+    degrees, longitude 60 (x towards y); with `turn` (degrees), looked up through a Mapping node
+    turning directions about z."""
     world = bpy.data.worlds.new("Sky")
     world.use_nodes = True
     scene.world = world
@@ -289,6 +290,11 @@ def sky_world(scene, sun=True, strength=3.0):
     background = tree.nodes["Background"]
     tree.links.new(env.outputs["Color"], background.inputs["Color"])
     background.inputs["Strength"].default_value = strength
+    if turn:
+        mapping = tree.nodes.new("ShaderNodeMapping")
+        mapping.inputs["Rotation"].default_value = (0.0, 0.0, np.radians(turn))
+        tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["Generated"], mapping.inputs["Vector"])
+        tree.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
     return world, env
 
 

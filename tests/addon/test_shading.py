@@ -141,9 +141,11 @@ def test_curve_and_text_objects_cast_their_shadows_as_in_cycles(export):
     assert sorted(m.object_type for m in sx.meshes) == ['CURVE', 'FONT', 'MESH', 'META']
 
 
-def test_an_hdri_sun_lights_and_shadows_as_in_cycles(export):
+@pytest.mark.parametrize("turn", [0.0, 40.0])
+def test_an_hdri_sun_lights_and_shadows_as_in_cycles(export, turn):
     """A world image with a small, very bright sun: Cycles samples it where it is; the export sends
-    it as a sun lamp there (and the rest as a uniform sky). Direct light on a floor round a box."""
+    it as a sun lamp there and the rest as the engine's world map, turned as a Mapping node turns
+    the image (`turn` degrees about z). Direct light on a floor round a box, and on the box."""
     import test_export
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -154,7 +156,7 @@ def test_an_hdri_sun_lights_and_shadows_as_in_cycles(export):
     diffuse(floor)
     bpy.ops.mesh.primitive_cube_add(size=0.8, location=(0.0, 0.0, 0.4))
     box = bpy.context.object
-    test_export.sky_world(scene)
+    test_export.sky_world(scene, turn=turn)
     bpy.ops.object.select_all(action='DESELECT')
     ref = cycles_corners(floor)
     shade = ref.max(1) < 0.3 * ref.max()
@@ -163,7 +165,7 @@ def test_an_hdri_sun_lights_and_shadows_as_in_cycles(export):
     print(f"\n  floor round a box under an HDRI's sun and sky: {100 * err:.3f}% RMS against Cycles", end="")
     # 1.1%. With the sky of the rest uniform, 2.4% (the floor sees only its upper half in Cycles); with
     # the sun spread over it too (no sun lamp), 64%: the lit floor at 0.40 of Cycles, the shadow 3-8 times.
-    assert err < 0.02
+    assert err < 0.015   # 0.72-1.14%
     # The box's sides face different parts of the sky (a quarter of it bluer, round +y), each lit by
     # the ground and the sun or not.
     # Not its bottom, on the floor: Cycles' rays from there hit the floor, ours, set off below it, the
@@ -173,4 +175,4 @@ def test_an_hdri_sun_lights_and_shadows_as_in_cycles(export):
     seen = normal_z > -0.5
     err = reference.relative_rms(direct_light(export, box)[seen], ref[seen])
     print(f"; the box: {100 * err:.3f}%", end="")
-    assert err < 0.02
+    assert err < 0.012   # 0.59-0.72% (Cycles' seed is fixed); the map turned the wrong way: 2.0%
