@@ -429,6 +429,8 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
         """(n, 3) of `source` at the corners `at` (or (3,) where it does not vary)."""
         if isinstance(source, colour_texture.MixRef):
             return colour_texture.blended(source, values(source.a, at, material), values(source.b, at, material))
+        if isinstance(source, colour_texture.AdjustRef):
+            return colour_texture.adjusted(source, values(source.colour, at, material))
         if isinstance(source, colour_texture.AttributeRef):
             colours = colour_texture.attribute_colours(source, me, loops, label, warnings)
             return colours[at] if colours is not None else colour_texture.mean_of(source, images)

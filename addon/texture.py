@@ -15,8 +15,8 @@ import numpy as np
 
 from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
 
-__all__ = ["TextureRef", "AttributeRef", "MixRef", "Images", "colour_source", "image_texture", "corner_colours",
-           "attribute_colours", "blended", "leaves", "varies", "mean_of", "mean_colour", "mapping_of", "sky_lights"]
+__all__ = ["TextureRef", "AttributeRef", "MixRef", "AdjustRef", "Images", "colour_source", "image_texture", "corner_colours",
+           "attribute_colours", "blended", "adjusted", "leaves", "varies", "mean_of", "mean_colour", "mapping_of", "sky_lights"]
 
 
 @dataclass
@@ -60,18 +60,38 @@ BLENDS = {
 }
 
 
+@dataclass
+class AdjustRef:
+    """A colour node of one colour in (Invert, Gamma, Bright/Contrast, Hue/Saturation/Value): `kind`
+    with its unlinked `values`, applied to `colour`, a (3,) colour or a reference."""
+    kind: str
+    values: dict
+    colour: object
+    factor: np.ndarray            # as TextureRef.factor
+
+
+# Each node: its colour input's name and the other inputs it takes (unlinked) by name.
+ADJUSTS = {'INVERT': ("Color", ("Fac",)), 'GAMMA': ("Color", ("Gamma",)),
+           'BRIGHTCONTRAST': ("Color", ("Bright", "Contrast")),
+           'HUE_SAT': ("Color", ("Hue", "Saturation", "Value", "Fac"))}
+
+
 def colour_source(socket, warnings, depth=0):
-    """TextureRef, AttributeRef or MixRef for what `socket`'s colour comes from, else None (unlinked,
-    or a node not followed). A Mix of colours that do not vary over the mesh does not either
-    (`varies`): mean_of gives it."""
+    """TextureRef, AttributeRef, MixRef or AdjustRef for what `socket`'s colour comes from, else None
+    (unlinked, or a node not followed). One of colours that do not vary over the mesh does not
+    either (`varies`): mean_of gives it."""
+    if depth > 16:
+        return None
     return image_texture(socket, warnings) or colour_attribute(socket, warnings) or \
-        colour_mix(socket, warnings, depth)
+        colour_mix(socket, warnings, depth) or colour_adjust(socket, warnings, depth)
 
 
 def leaves(source):
     """The TextureRefs and AttributeRefs a source reads."""
     if isinstance(source, MixRef):
         return leaves(source.a) + leaves(source.b)
+    if isinstance(source, AdjustRef):
+        return leaves(source.colour)
     return [source] if isinstance(source, (TextureRef, AttributeRef)) else []
 
 
@@ -97,18 +117,81 @@ def colour_mix(socket, warnings, depth=0):
     if fac.is_linked:
         warnings.append(f"{node.name}: its factor is linked; its unlinked value is used")
 
-    def side(s):
-        if not s.is_linked:
-            return np.array(s.default_value[:3], np.float64)
-        source = colour_source(s, warnings, depth + 1)
-        if source is None:
-            warnings.append(f"{node.name}.{s.name} is linked to a node not followed; its unlinked value is used")
-            return np.array(s.default_value[:3], np.float64)
-        return source
+    side = lambda s: _input_colour(node, s, warnings, depth)   # noqa: E731
     t = float(fac.default_value)
     if node.type == 'MIX_RGB' or node.clamp_factor:
         t = min(max(t, 0.0), 1.0)
     return MixRef(node.blend_type, t, side(a), side(b), clamp, np.ones(3))
+
+
+def _input_colour(node, socket, warnings, depth):
+    """What a colour node's colour input holds: its colour source, or its unlinked colour."""
+    if not socket.is_linked:
+        return np.array(socket.default_value[:3], np.float64)
+    source = colour_source(socket, warnings, depth + 1)
+    if source is None:
+        warnings.append(f"{node.name}.{socket.name} is linked to a node not followed; its unlinked value is used")
+        return np.array(socket.default_value[:3], np.float64)
+    return source
+
+
+def colour_adjust(socket, warnings, depth=0):
+    """AdjustRef for an Invert, Gamma, Bright/Contrast or Hue/Saturation/Value node linked straight
+    into `socket`, else None."""
+    if socket is None or not socket.is_linked:
+        return None
+    node = socket.links[0].from_node
+    if node.type not in ADJUSTS:
+        return None
+    colour, names = ADJUSTS[node.type]
+    for name in names:
+        if node.inputs[name].is_linked:
+            warnings.append(f"{node.name}.{name} is linked; its unlinked value is used")
+    values = {name: float(node.inputs[name].default_value) for name in names}
+    return AdjustRef(node.type, values, _input_colour(node, node.inputs[colour], warnings, depth), np.ones(3))
+
+
+def _rgb_to_hsv(c):
+    """(..., 3) RGB to HSV as Blender's rgb_to_hsv (h, s in [0, 1))."""
+    r, g, b = c[..., 0], c[..., 1], c[..., 2]
+    v = np.maximum(np.maximum(r, g), b)
+    delta = v - np.minimum(np.minimum(r, g), b)
+    s = np.where(v != 0, delta / np.where(v != 0, v, 1), 0.0)
+    safe = np.where(delta != 0, delta, 1)
+    h = np.where(r == v, (g - b) / safe, np.where(g == v, 2 + (b - r) / safe, 4 + (r - g) / safe)) / 6
+    h = np.where(s != 0, np.where(h < 0, h + 1, h), 0.0)
+    return np.stack([h, s, v], -1)
+
+
+def _hsv_to_rgb(c):
+    """(..., 3) HSV to RGB as Blender's hsv_to_rgb."""
+    h, s, v = c[..., 0], c[..., 1], c[..., 2]
+    h = np.where(h == 1, 0.0, h) * 6
+    i = np.floor(h)
+    f = h - i
+    p, q, t = v * (1 - s), v * (1 - s * f), v * (1 - s * (1 - f))
+    i = i.astype(int) % 6
+    pick = lambda *xs: np.choose(i, xs)   # noqa: E731
+    rgb = np.stack([pick(v, q, p, p, t, v), pick(t, v, v, q, p, p), pick(p, p, t, v, v, q)], -1)
+    return np.where((s == 0)[..., None], v[..., None], rgb)
+
+
+def adjusted(ref, colour):
+    """ref's node (Cycles' svm) applied to colours (K, 3) or (3,), times ref.factor."""
+    k, x = ref.kind, ref.values
+    if k == 'INVERT':
+        out = (1 - x["Fac"]) * colour + x["Fac"] * (1 - colour)
+    elif k == 'GAMMA':
+        out = np.where(colour > 0, np.power(np.maximum(colour, 0), x["Gamma"]), colour)
+    elif k == 'BRIGHTCONTRAST':
+        a, b = 1 + x["Contrast"], x["Bright"] - 0.5 * x["Contrast"]
+        out = np.maximum(a * colour + b, 0)
+    else:   # HUE_SAT
+        hsv = _rgb_to_hsv(np.asarray(colour, np.float64))
+        h = hsv[..., 0] + x["Hue"] - 0.5
+        hsv = np.stack([h - np.floor(h), np.clip(hsv[..., 1] * x["Saturation"], 0, 1), hsv[..., 2] * x["Value"]], -1)
+        out = np.maximum(x["Fac"] * _hsv_to_rgb(hsv) + (1 - x["Fac"]) * colour, 0)
+    return out * ref.factor
 
 
 def blended(ref, a, b):
@@ -298,11 +381,14 @@ class Images:
 
 def mean_of(source, images):
     """(3,) the colour a source stands for where it cannot be read at the corners: an image's mean,
-    black for an attribute (as Cycles takes a mesh without it), a Mix of those; times its factor."""
+    black for an attribute (as Cycles takes a mesh without it), a Mix or adjustment of those; times
+    its factor."""
     if isinstance(source, np.ndarray):
         return source
     if isinstance(source, MixRef):
         return blended(source, mean_of(source.a, images), mean_of(source.b, images))
+    if isinstance(source, AdjustRef):
+        return adjusted(source, mean_of(source.colour, images))
     base = mean_colour(source.image, images) if isinstance(source, TextureRef) else np.zeros(3)
     return base * source.factor
 

@@ -247,3 +247,21 @@ def test_mixed_colours_reach_the_corners_as_cycles_bakes_them(addon, kind, blend
             socket.default_value = (*what, 1.0)
     tree.links.new(out, tree.nodes["Diffuse BSDF"].inputs["Color"])
     corners_as_cycles_bakes_them(addon, ob, f"{kind[10:]} {blend}")
+
+
+ADJUSTS = [("ShaderNodeInvert", {"Fac": 0.7}), ("ShaderNodeGamma", {"Gamma": 2.2}),
+           ("ShaderNodeGamma", {"Gamma": 0.5}), ("ShaderNodeBrightContrast", {"Bright": 0.05, "Contrast": -0.2}),
+           ("ShaderNodeHueSaturation", {"Hue": 0.3, "Saturation": 1.4, "Value": 0.9, "Fac": 0.8})]
+
+
+@pytest.mark.parametrize("kind, values", ADJUSTS, ids=[f"{k[10:]}-{list(v.values())[0]}" for k, v in ADJUSTS])
+def test_adjusted_colours_reach_the_corners_as_cycles_bakes_them(addon, kind, values):
+    """Invert, Gamma, Bright/Contrast and Hue/Saturation/Value between the texture and the BSDF."""
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    tree = ob.active_material.node_tree
+    node = tree.nodes.new(kind)
+    for name, value in values.items():
+        node.inputs[name].default_value = value
+    tree.links.new(tree.nodes["Image Texture"].outputs["Color"], node.inputs["Color"])
+    tree.links.new(node.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
+    corners_as_cycles_bakes_them(addon, ob, f"{kind[10:]} {values}")
