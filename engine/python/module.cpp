@@ -31,7 +31,7 @@ std::vector<dvec3> points(const Array<double>& a, const char* what) {
   return out;
 }
 
-constexpr const char* WORLD_MAP_DOC =
+constexpr const char* kWorldMapDoc =
     "The world's radiance by direction: (H, W, 3), equirectangular in Cycles' layout, rows from the bottom";
 
 WorldMap world_map(const Array<double>& a) {
@@ -249,7 +249,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
            "One-sided emitter along -(u x v); u, v are half extents (disc: radius |u|)")
       .def("set_world", [](SceneDesc& s, std::array<double, 3> radiance) { s.world = WorldMap::uniform(vec3(radiance)); })
       .def("set_world_map", [](SceneDesc& s, const Array<double>& texels) { s.world = world_map(texels); },
-           py::arg("texels"), WORLD_MAP_DOC)
+           py::arg("texels"), kWorldMapDoc)
       .def_property_readonly("mesh_count", [](const SceneDesc& s) { return s.meshes.size(); });
 
   py::class_<Solver>(m, "Solver")
@@ -316,7 +316,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def("set_world", [](Solver& s, std::array<double, 3> radiance) { s.set_world(vec3(radiance)); },
            py::arg("radiance"))
       .def("set_world_map", [](Solver& s, const Array<double>& texels) { s.set_world_map(world_map(texels)); },
-           py::arg("texels"), WORLD_MAP_DOC)
+           py::arg("texels"), kWorldMapDoc)
       .def("cancel", &Solver::cancel)
       .def("record_rays", &Solver::record_rays, py::arg("stride") = 1,
            "Benchmark hook: keep every stride-th batch of visibility rays traced from now on")
