@@ -87,6 +87,17 @@ def direct_light(export, ob):
     return solver.corner_radiance(ids[ob.name])
 
 
+def direct_light_grid(subdivisions, size, samples=4):
+    """(scene, grid): an empty scene that Cycles bakes with direct light only (exact at any sample
+    count for lamps without a size), and a grid in it."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    cycles_settings.unbiased(scene, samples, 0, 0)
+    scene.render.bake.target = 'VERTEX_COLORS'
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=subdivisions, y_subdivisions=subdivisions, size=size)
+    return scene, bpy.context.object
+
+
 def cycles_corners(ob):
     a = ob.data.color_attributes.new("CyclesRef", 'FLOAT_COLOR', 'CORNER')
     ob.data.color_attributes.active_color = a
@@ -116,12 +127,7 @@ def test_curve_and_text_objects_cast_their_shadows_as_in_cycles(export):
     """Curves, text, surfaces and metaballs are surfaces to Cycles: they block and reflect light,
     though they hold no colour attribute. Before, the export failed on text and curves (their
     evaluated meshes came as instances of objects with no loops) and passed metaballs over."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    cycles_settings.unbiased(scene, 4, 0, 0)  # direct light only: exact at any sample count
-    scene.render.bake.target = 'VERTEX_COLORS'
-    bpy.ops.mesh.primitive_grid_add(x_subdivisions=24, y_subdivisions=24, size=4.0)
-    floor = bpy.context.object
+    scene, floor = direct_light_grid(24, 4.0)
     diffuse(floor)
     bpy.ops.object.text_add(location=(-1.3, -0.7, 0.9))
     text = bpy.context.object
@@ -147,12 +153,7 @@ def test_an_hdri_sun_lights_and_shadows_as_in_cycles(export, turn):
     it as a sun lamp there and the rest as the engine's world map, turned as a Mapping node turns
     the image (`turn` degrees about z). Direct light on a floor round a box, and on the box."""
     import test_export
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    cycles_settings.unbiased(scene, 256, 0, 0)
-    scene.render.bake.target = 'VERTEX_COLORS'
-    bpy.ops.mesh.primitive_grid_add(x_subdivisions=24, y_subdivisions=24, size=4.0)
-    floor = bpy.context.object
+    scene, floor = direct_light_grid(24, 4.0, samples=256)   # the sky's light is sampled
     diffuse(floor)
     bpy.ops.mesh.primitive_cube_add(size=0.8, location=(0.0, 0.0, 0.4))
     box = bpy.context.object

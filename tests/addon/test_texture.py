@@ -14,9 +14,8 @@ from conftest import ROOT
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
 sys.path.insert(0, os.path.join(ROOT, "build", "engine"))
 pytest.importorskip("radiosity_engine")
-import cycles_settings  # noqa: E402
 import reference  # noqa: E402
-from test_shading import cycles_corners, diffuse, direct_light, point_lamp  # noqa: E402
+from test_shading import cycles_corners, diffuse, direct_light, direct_light_grid, point_lamp  # noqa: E402
 
 # 4 x 4 texels, each its own colour, none near white (the engine's limit is below one)
 TEXELS = np.random.default_rng(7).uniform(0.05, 0.9, (4, 4, 3))
@@ -26,12 +25,7 @@ def textured_grid(interpolation, colorspace, uv_scale, mapping=None):
     """A 5 x 5-quad grid whose Diffuse BSDF takes its colour from the 4 x 4 image, under a lamp.
     `mapping`: (vector type, location, rotation, scale) of a Mapping node between a Texture
     Coordinate node's UV and the image."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    cycles_settings.unbiased(scene, 4, 0, 0)  # direct light only: exact at any sample count
-    scene.render.bake.target = 'VERTEX_COLORS'
-    bpy.ops.mesh.primitive_grid_add(x_subdivisions=6, y_subdivisions=6, size=2.0)
-    ob = bpy.context.object
+    scene, ob = direct_light_grid(6, 2.0)
     uv = np.empty(len(ob.data.loops) * 2, np.float32)
     ob.data.uv_layers.active.data.foreach_get("uv", uv)
     ob.data.uv_layers.active.data.foreach_set("uv", uv * uv_scale)   # past 1: the image repeats
