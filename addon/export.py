@@ -21,6 +21,7 @@ import bpy
 import numpy as np
 
 from . import texture as colour_texture
+from . import world as world_light
 
 __all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "export_scene", "to_engine",
            "export_materials_of", "material_values", "world_radiance", "light_values", "dark",
@@ -243,7 +244,7 @@ def material_values(mat, images=None):
 def world_radiance(world, warnings=None, images=None):
     """(background radiance (3,), world map (H, W, 3) or None, [LightExport suns]) of a World: its
     Background node's colour times strength. An Environment Texture there gives what its image sends
-    as the engine can take it (texture.sky_lights): its suns as sun lamps, the rest as a map."""
+    as the engine can take it (world.sky_lights): its suns as sun lamps, the rest as a map."""
     warnings = [] if warnings is None else warnings
     if world is None:
         return np.zeros(3), None, []
@@ -260,13 +261,13 @@ def world_radiance(world, warnings=None, images=None):
             source = c.links[0].from_node
             if source.type == 'TEX_ENVIRONMENT' and source.image is not None:
                 images = colour_texture.Images() if images is None else images
-                sky, rest, found = colour_texture.sky_lights(source, images)
-                turn = _environment_turn(source, warnings)
+                sky, rest, found = world_light.sky_lights(source, images)
+                turn = world_light.environment_turn(source, warnings)
                 suns = [LightExport(f"{world.name} sun {k}", "sun", direction=-_unit(turn @ towards),
                                     irradiance=irradiance * strength, angle=float(angle))
                         for k, (towards, irradiance, angle) in enumerate(found)]
                 if rest is not None and not np.allclose(turn, np.eye(3)):
-                    rest = _turned_about_z(rest, turn)
+                    rest = world_light.turned_about_z(rest, turn)
                     if rest is None:
                         warnings.append(f"world: {source.image.name} turned by a Mapping node other than about "
                                         "z: its suns turn, its sky goes as a uniform sky of its mean")
@@ -280,35 +281,6 @@ def world_radiance(world, warnings=None, images=None):
         warnings.append(f"world: a {node.type} node is not followed; the world is black")
         return np.zeros(3), None, []
     return np.array(world.color[:3], dtype=np.float64), None, []
-
-
-def _environment_turn(node, warnings):
-    """(3, 3) from the directions an Environment Texture's image is laid out in to the world's: the
-    inverse of a Mapping node's on its Vector (its rotation and scale; directions have no place)."""
-    vector = node.inputs["Vector"]
-    if not vector.is_linked:
-        return np.eye(3)
-    source = vector.links[0].from_node
-    mapping = colour_texture.mapping_of(source, warnings) if source.type == 'MAPPING' else None
-    inner = source.inputs["Vector"].links[0] if mapping is not None and source.inputs["Vector"].is_linked else None
-    if inner is None or inner.from_node.type != 'TEX_COORD' or inner.from_socket.identifier != 'Generated':
-        warnings.append(f"{node.name}: directions from a {source.type} node are not followed (a Mapping "
-                        "node's, from a Texture Coordinate's Generated, are)")
-        return np.eye(3)
-    return np.linalg.pinv(mapping[:, :3])   # a zero scale: pinv rather than a crash
-
-
-def _turned_about_z(sky, turn):
-    """The world map `sky` (H, W, 3) laid out in the image's directions, in the world's when `turn`
-    is a turn about z (by shifting its columns, interpolated); None when it is another."""
-    if not (np.allclose(turn[2], (0, 0, 1)) and np.allclose(turn[:2, 2], 0)
-            and np.allclose(turn[:2, :2] @ turn[:2, :2].T, np.eye(2)) and np.linalg.det(turn[:2, :2]) > 0):
-        return None
-    # A world direction of longitude a reads the image at a - angle: u = 0.5 - longitude / 2 pi.
-    shift = np.arctan2(turn[1, 0], turn[0, 0]) / (2 * np.pi) * sky.shape[1]
-    whole = int(np.floor(shift))
-    part = shift - whole
-    return (1 - part) * np.roll(sky, -whole, axis=1) + part * np.roll(sky, -whole - 1, axis=1)
 
 
 def export_materials_of(ob, registry, materials, images=None):

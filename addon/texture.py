@@ -3,8 +3,8 @@ at the face corners with numpy over all of them at once: a colour attribute, rea
 texture, sampled at their UVs as Cycles samples it (texel centres at (i + 0.5) / size, Linear or
 Closest, the node's extension; an 8-bit sRGB image interpolated as stored and then made linear, as
 Cycles keeps such images compressed), the UVs from a UV Map node, a Texture Coordinate node's UV or
-the default map, through a Mapping node if there is one; Mix nodes of those and plain colours. Also
-what an environment image sends, for the world: its suns and a uniform sky (sky_lights).
+the default map, through a Mapping node if there is one; Mix and colour-correction nodes of those
+and plain colours. And `Images`, what exports read from images (world.py reads environments).
 
 Cycles reads the texture wherever it shades; the engine gets it at the mesh's face corners and
 interpolates it across each face, as the issue asks ("sampled per vertex"): detail finer than the
@@ -16,7 +16,8 @@ import numpy as np
 from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
 
 __all__ = ["TextureRef", "AttributeRef", "MixRef", "AdjustRef", "Images", "colour_source", "image_texture", "corner_colours",
-           "attribute_colours", "blended", "adjusted", "leaves", "varies", "mean_of", "mean_colour", "mapping_of", "sky_lights"]
+           "attribute_colours", "blended", "adjusted", "leaves", "varies", "mean_of", "mean_colour", "mapping_of",
+           "encoded_srgb", "srgb_to_linear"]
 
 
 @dataclass
@@ -305,12 +306,12 @@ def _mapped(ref, uv):
     return uv @ ref.mapping[:2, :2].T + ref.mapping[:2, 3]
 
 
-def _encoded_srgb(image):
+def encoded_srgb(image):
     """Whether the pixels hold sRGB's encoding: an 8-bit image in sRGB (float images are linear)."""
     return not image.is_float and image.colorspace_settings.name == 'sRGB'
 
 
-def _srgb_to_linear(c):
+def srgb_to_linear(c):
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
 
 
@@ -403,89 +404,8 @@ def mean_colour(image, images):
         px = px[::step, ::step, :3]
         if not px.size:
             return np.zeros(3)
-        return (_srgb_to_linear(px) if _encoded_srgb(image) else px).mean((0, 1), dtype=np.float64)
+        return (srgb_to_linear(px) if encoded_srgb(image) else px).mean((0, 1), dtype=np.float64)
     return images.sampled(image, "mean", None, work)
-
-
-# A texel of an environment brighter than this many times its mean over the sphere belongs to a sun.
-SUN_CONTRAST = 50.0
-SUN_TEXELS = 20000   # more than this many: no sun, but a bright sky
-
-
-# The sky without its suns goes to the engine at most this many texels wide (and half as high): its
-# light varies slowly, and the engine reads it at every ray to the sky.
-SKY_MAP_WIDTH = 128
-
-
-def sky_lights(node, images):
-    """What an Environment Texture node's image sends, as the engine can take it: (its mean radiance
-    over the sphere without its suns (3,), the same by direction (H, W, 3) or None, [(direction
-    towards a sun (3,), its irradiance (3,), angular diameter)]). The suns are the texels brighter
-    than SUN_CONTRAST times the image's mean, in connected patches; the rest goes in blocks of
-    texels averaged by solid angle, SKY_MAP_WIDTH across at most (an equirectangular image's: a
-    mirror ball's is its mean, with no suns). Over every texel: a sun a few texels wide can carry
-    most of an HDRI's light."""
-    image = node.image
-
-    def work():
-        px = images.pixels(image)[:, :, :3]
-        if not px.size:
-            return np.zeros(3), None, []
-        if _encoded_srgb(image):
-            px = _srgb_to_linear(px)
-        if node.projection != 'EQUIRECTANGULAR':
-            return px.reshape(-1, 3).mean(0, dtype=np.float64), None, []
-        h, w = px.shape[:2]
-        latitude = ((np.arange(h) + 0.5) / h - 0.5) * np.pi
-        row_solid = (2 * np.pi / w) * (np.pi / h) * np.cos(latitude)   # a texel's solid angle, by row
-        luminance = px @ np.array([0.2126, 0.7152, 0.0722], np.float32)
-        mean = (luminance.sum(1, dtype=np.float64) * row_solid).sum() / (row_solid.sum() * w)
-        bright = luminance > SUN_CONTRAST * mean
-        # Sums by blocks of texels, in float32 but for the rows' weights: an 8k image in float64 was
-        # 0.8 GB a copy. The suns' texels come off afterwards: they are few.
-        step = max(1, -(-w // SKY_MAP_WIDTH))
-        rows, cols = np.arange(0, h, step), np.arange(0, w, step)
-        by_row = np.add.reduceat(px, cols, 1).astype(np.float64) * row_solid[:, None, None]
-        blocks = np.add.reduceat(by_row, rows, 0)
-        weights = np.add.reduceat(np.repeat(row_solid[:, None], len(cols), 1) *
-                                  np.diff(np.append(cols, w))[None, :], rows, 0)
-        suns = []
-        if bright.sum() <= SUN_TEXELS:
-            longitude = (0.5 - (np.arange(w) + 0.5) / w) * 2 * np.pi   # Cycles' equirectangular u
-            for r, c in _patches(bright):
-                lat, lon = latitude[r], longitude[c]
-                towards = np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], 1)
-                d = row_solid[r]
-                centre = (towards * (luminance[r, c] * d)[:, None]).sum(0)
-                light = px[r, c].astype(np.float64) * d[:, None]
-                np.subtract.at(blocks, (r // step, c // step), light)
-                suns.append((centre / np.linalg.norm(centre), light.sum(0), 2.0 * np.sqrt(d.sum() / np.pi)))
-        return blocks.sum((0, 1)) / weights.sum(), blocks / weights[:, :, None], suns
-    return images.sampled(image, ("sky", node.projection), None, work)
-
-
-def _patches(mask):
-    """[(rows, cols)] of each 8-connected patch of True in `mask`, the columns wrapping round (an
-    equirectangular image's left and right edges meet)."""
-    h, w = mask.shape
-    label = np.zeros(mask.shape, np.int32)
-    patches = []
-    for start in zip(*np.nonzero(mask)):
-        if label[start]:
-            continue
-        label[start] = len(patches) + 1
-        todo, members = [start], []
-        while todo:
-            r, c = todo.pop()
-            members.append((r, c))
-            for dr in (-1, 0, 1):
-                for dc in (-1, 0, 1):
-                    rr, cc = r + dr, (c + dc) % w
-                    if 0 <= rr < h and mask[rr, cc] and not label[rr, cc]:
-                        label[rr, cc] = label[start]
-                        todo.append((rr, cc))
-        patches.append(tuple(np.array(x) for x in zip(*members)))
-    return patches
 
 
 def corner_colours(ref, uv, images, user=""):
@@ -517,8 +437,8 @@ def _texels_at(ref, uv, images):
         ys = [_wrap(y0, h, ref.extension), _wrap(y0 + 1, h, ref.extension)]
         colour = ((1 - fx) * (1 - fy) * px[ys[0], xs[0], :3] + fx * (1 - fy) * px[ys[0], xs[1], :3]
                   + (1 - fx) * fy * px[ys[1], xs[0], :3] + fx * fy * px[ys[1], xs[1], :3])
-    if _encoded_srgb(ref.image):
-        colour = _srgb_to_linear(colour)
+    if encoded_srgb(ref.image):
+        colour = srgb_to_linear(colour)
     if ref.extension == 'CLIP':
         outside = (uv < 0).any(1) | (uv > 1).any(1)
         colour = np.where(outside[:, None], 0.0, colour)
