@@ -194,7 +194,8 @@ PYBIND11_MODULE(radiosity_engine, m) {
               const Array<int>& face_vertices, const Array<int>& face_materials,
               std::optional<Array<double>> transform, const std::string& refine, int level,
               double patch_size, bool dynamic, const std::string& name, bool visible,
-              std::optional<Array<bool>> smooth, std::optional<Array<double>> corner_reflectance) {
+              std::optional<Array<bool>> smooth, std::optional<Array<double>> corner_reflectance,
+              std::optional<Array<double>> corner_emission) {
              MeshDesc mesh;
              mesh.name = name;
              mesh.positions = points(positions, "positions");
@@ -210,6 +211,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
              if (smooth)
                for (bool b : flat(*smooth)) mesh.face_smooth.push_back(b);
              if (corner_reflectance) mesh.corner_reflectance = points(*corner_reflectance, "corner_reflectance");
+             if (corner_emission) mesh.corner_emission = points(*corner_emission, "corner_emission");
              s.meshes.push_back(std::move(mesh));
              return int(s.meshes.size()) - 1;
            },
@@ -217,10 +219,12 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("transform") = py::none(), py::arg("refine") = "none", py::arg("level") = 0,
            py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "",
            py::arg("visible") = true, py::arg("smooth") = py::none(), py::arg("corner_reflectance") = py::none(),
+           py::arg("corner_emission") = py::none(),
            "visible=False: kept (refined) but out of the lighting until Solver.set_visible(id, True); "
            "smooth: per face, shaded smooth (None: smooth for catmull_clark, flat otherwise); "
            "corner_reflectance: (face corners, 3) in face_vertices' order, in place of the materials' "
-           "reflectance (a texture sampled at the corners; None: the materials')")
+           "reflectance (a texture sampled at the corners; None: the materials'); corner_emission: the same "
+           "for the emitted radiance")
       .def("add_point_light",
            [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
              s.lamps.push_back(point_lamp(position, intensity, radius));

@@ -119,7 +119,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   for (const auto& [o, m] : changes.meshes) {
     objects.push_back(o);
     for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
-      light_changed = light_changed || material(q).emission != dvec3(0.0);
+      light_changed = light_changed || mesh.emits(q);
   }
   if (light_changed) near_direct.reset();
   if (changes.world) change_world(*changes.world);
@@ -246,8 +246,8 @@ bool Solver::Impl::scale_sole_lamp(int index, const Lamp& lamp) {
   if (!same_but_colour(old, lamp) || scene.world.lit() || !(channel_sum(old.color) > 0)) return false;
   for (size_t i = 0; i < scene.lamps.size(); ++i)
     if (int(i) != index && channel_sum(scene.lamps[i].color) > 0) return false;
-  for (const Material& m : scene.materials)
-    if (channel_sum(m.emission) > 0) return false;
+  for (const dvec3& e : mesh.emission)
+    if (channel_sum(e) > 0) return false;
   double k = glm::dot(lamp.color, old.color) / glm::dot(old.color, old.color);
   if (glm::length(lamp.color - k * old.color) > 1e-12 * glm::length(lamp.color)) return false;
   for (auto* points : {&front, &back, &reflected_front, &reflected_back})
@@ -279,7 +279,8 @@ void Solver::Impl::change_material(int index, const Material& m) {
   Material old = scene.materials[index];
   scene.materials[index] = m;
   // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did (of
-  // their points' reflected light, `onward` times it). A textured object's reflectance is its own.
+  // their points' reflected light, `onward` times it). A textured object's reflectance (emission)
+  // is its own.
   dvec3 rho = m.reflectance - old.reflectance;
   dvec3 emission = m.emission - old.emission;
   std::vector<CornerUnshot> emitted(mesh.patches.size());
@@ -288,10 +289,12 @@ void Solver::Impl::change_material(int index, const Material& m) {
     emitted[p].fill(dvec3(0.0));
     if (patch.material != index) continue;
     bool own_rho = scene.meshes[patch.object].corner_reflectance.empty();
+    bool own_emission = scene.meshes[patch.object].corner_emission.empty();
     if (own_rho) std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
+    if (own_emission) std::fill_n(mesh.emission.begin() + 4 * p, 4, m.emission);
     // A hidden object emits nothing, and gathers nothing to reflect.
     if (patch.area == 0 || !scene.meshes[patch.object].visible) continue;
-    emitted[p].fill(emission);
+    if (own_emission) emitted[p].fill(emission);
     if (!own_rho) continue;
     for (int c = 0; c < 4; ++c) {
       int i = patch.point[c];

@@ -85,8 +85,7 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   // Pieces reflect the corners' mean: a texture's colour changes little across one patch, unlike
   // the light across a shadow edge.
   dvec3 mean_rho = 0.25 * (rho[0] + rho[1] + rho[2] + rho[3]);
-  if (patch.area == 0 || !scene.meshes[patch.object].visible || mean_rho == dvec3(0.0) ||
-      material(q).emission != dvec3(0.0))
+  if (patch.area == 0 || !scene.meshes[patch.object].visible || mean_rho == dvec3(0.0) || mesh.emits(q))
     return nullptr;
   CornerUnshot& corners = nd.scratch[q];
   for (int c = 0; c < 4; ++c) {

@@ -27,7 +27,7 @@ void scene_bounds(const SceneDesc& scene, dvec3& lo, dvec3& hi) {
     }
 }
 
-// Appends one object's patches (topology only: corners, material and reflectance, object);
+// Appends one object's patches (topology only: corners, material, reflectance and emission, object);
 // `set_geometry` places them.
 void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined, const std::vector<Material>& materials,
                  int object, ObjectPatches& obj) {
@@ -44,11 +44,16 @@ void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined
     patch.material = mesh.face_materials[refined.quad_face[q]];
     patch.object = object;
     pm.patches.push_back(patch);
-    std::array<dvec3, 4> rho;
-    rho.fill(materials[patch.material].reflectance);
-    if (!refined.corner_reflectance.empty()) rho = refined.corner_reflectance[q];
-    if (mirrored) std::swap(rho[1], rho[3]);
-    pm.reflectance.insert(pm.reflectance.end(), rho.begin(), rho.end());
+    auto per_corner = [&](const dvec3& material, const std::vector<std::array<dvec3, 4>>& corners,
+                          std::vector<dvec3>& to) {
+      std::array<dvec3, 4> value;
+      value.fill(material);
+      if (!corners.empty()) value = corners[q];
+      if (mirrored) std::swap(value[1], value[3]);
+      to.insert(to.end(), value.begin(), value.end());
+    };
+    per_corner(materials[patch.material].reflectance, refined.corner_reflectance, pm.reflectance);
+    per_corner(materials[patch.material].emission, refined.corner_emission, pm.emission);
   }
 }
 

@@ -59,8 +59,15 @@ struct PatchMesh {
   std::vector<std::array<double, 2>> own_view;
   std::vector<double> onward;  // per slot: CornerView::onward
   std::vector<dvec3> reflectance;  // per slot: the material's, or MeshDesc::corner_reflectance there
+  std::vector<dvec3> emission;     // per slot: the material's, or MeshDesc::corner_emission there
   std::vector<ObjectPatches> objects;  // one per SceneDesc mesh
   int degenerate_patches = 0;
+
+  bool emits(int patch) const {
+    for (int c = 0; c < 4; ++c)
+      if (emission[4 * patch + c] != dvec3(0.0)) return true;
+    return false;
+  }
 };
 
 PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings);

@@ -25,6 +25,16 @@ struct Point3 {
   void AddWithWeight(const Point3& src, double w) { p += w * src.p; }
 };
 
+// A face corner's reflectance and emission, refined as one face-varying value.
+struct CornerColours {
+  dvec3 reflectance{0.0}, emission{0.0};
+  void Clear(void* = nullptr) { reflectance = emission = dvec3(0.0); }
+  void AddWithWeight(const CornerColours& src, double w) {
+    reflectance += w * src.reflectance;
+    emission += w * src.emission;
+  }
+};
+
 bool all_quads_or_triangles(const MeshDesc& mesh) {
   return std::all_of(mesh.face_sizes.begin(), mesh.face_sizes.end(),
                      [](int n) { return n == 3 || n == 4; });
@@ -80,10 +90,13 @@ RefinedMesh copy_faces(const MeshDesc& mesh) {
     int n = mesh.face_sizes[f];
     out.quads.push_back({v[0], v[1], v[2], n == 4 ? v[3] : v[2]});
     out.quad_face.push_back(int(f));
-    if (!mesh.corner_reflectance.empty()) {
-      const dvec3* rho = &mesh.corner_reflectance[offset];
-      out.corner_reflectance.push_back({rho[0], rho[1], rho[2], n == 4 ? rho[3] : rho[2]});
-    }
+    auto corners = [&](const std::vector<dvec3>& values, std::vector<std::array<dvec3, 4>>& to) {
+      if (values.empty()) return;
+      const dvec3* c = &values[offset];
+      to.push_back({c[0], c[1], c[2], n == 4 ? c[3] : c[2]});
+    };
+    corners(mesh.corner_reflectance, out.corner_reflectance);
+    corners(mesh.corner_emission, out.corner_emission);
     offset += n;
   }
   return out;
@@ -141,13 +154,15 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
   desc.numVertsPerFace = mesh.face_sizes.data();
   desc.vertIndicesPerFace = mesh.face_vertices.data();
 
-  // Corner reflectance is face-varying: each face corner a value of its own, interpolated
-  // linearly inside its face (as Cycles interpolates a texture's colours between samples).
+  // Corner reflectance and emission are face-varying: each face corner a value of its own,
+  // interpolated linearly inside its face (as Cycles interpolates a texture's colours between
+  // samples). One channel carries both.
   std::vector<int> corner_index;
   Far::TopologyDescriptor::FVarChannel corners;
-  bool textured = !mesh.corner_reflectance.empty();
+  bool with_rho = !mesh.corner_reflectance.empty(), with_emission = !mesh.corner_emission.empty();
+  bool textured = with_rho || with_emission;
   if (textured) {
-    corner_index.resize(mesh.corner_reflectance.size());
+    corner_index.resize(mesh.face_vertices.size());
     for (size_t k = 0; k < corner_index.size(); ++k) corner_index[k] = int(k);
     corners.numValues = int(corner_index.size());
     corners.valueIndices = corner_index.data();
@@ -178,9 +193,11 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
     normals.resize(input.size());
     for (size_t i = 0; i < input.size(); ++i) normals[i].p = input[i];
   }
-  std::vector<Point3> reflectance;
+  std::vector<CornerColours> colours;
   if (textured)
-    for (const dvec3& rho : mesh.corner_reflectance) reflectance.push_back({rho});
+    for (size_t k = 0; k < mesh.face_vertices.size(); ++k)
+      colours.push_back({with_rho ? mesh.corner_reflectance[k] : dvec3(0.0),
+                         with_emission ? mesh.corner_emission[k] : dvec3(0.0)});
   std::vector<int> vertex_map(mesh.positions.size());
   for (size_t i = 0; i < vertex_map.size(); ++i) vertex_map[i] = int(i);
   Far::PrimvarRefinerReal<double> primvar(*refiner);
@@ -194,9 +211,9 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
       normals.swap(next_normals);
     }
     if (textured) {
-      std::vector<Point3> next_reflectance(refiner->GetLevel(l).GetNumFVarValues(0));
-      primvar.InterpolateFaceVarying(l, reflectance, next_reflectance);
-      reflectance.swap(next_reflectance);
+      std::vector<CornerColours> next_colours(refiner->GetLevel(l).GetNumFVarValues(0));
+      primvar.InterpolateFaceVarying(l, colours, next_colours);
+      colours.swap(next_colours);
     }
     const Far::TopologyLevel& parent = refiner->GetLevel(l - 1);
     for (int& v : vertex_map) v = parent.GetVertexChildVertex(v);
@@ -212,8 +229,12 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
     out.quads[f] = {fv[0], fv[1], fv[2], fv[3]};
     if (textured) {
       Far::ConstIndexArray fvar = last.GetFaceFVarValues(f, 0);
-      out.corner_reflectance.push_back(
-          {reflectance[fvar[0]].p, reflectance[fvar[1]].p, reflectance[fvar[2]].p, reflectance[fvar[3]].p});
+      auto at = [&](dvec3 CornerColours::*which) {
+        return std::array<dvec3, 4>{colours[fvar[0]].*which, colours[fvar[1]].*which, colours[fvar[2]].*which,
+                                    colours[fvar[3]].*which};
+      };
+      if (with_rho) out.corner_reflectance.push_back(at(&CornerColours::reflectance));
+      if (with_emission) out.corner_emission.push_back(at(&CornerColours::emission));
     }
     int parent = f;
     for (int l = level; l > 0; --l) parent = refiner->GetLevel(l).GetFaceParentFace(parent);

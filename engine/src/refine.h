@@ -16,9 +16,9 @@ struct RefinedMesh {
   std::vector<std::array<int, 4>> quads;  // counter-clockwise; a triangle repeats its last vertex
   std::vector<int> quad_face;             // input face each quad came from
   std::vector<int> input_vertex;          // input vertex -> refined vertex at the same place
-  // Per quad corner, MeshDesc::corner_reflectance interpolated linearly across each input face;
-  // empty when the mesh has none.
-  std::vector<std::array<dvec3, 4>> corner_reflectance;
+  // Per quad corner, MeshDesc::corner_reflectance and corner_emission interpolated linearly across
+  // each input face; empty when the mesh has none.
+  std::vector<std::array<dvec3, 4>> corner_reflectance, corner_emission;
 };
 
 // Bilinear levels needed for the mesh's longest world-space edge to come down to patch_size.

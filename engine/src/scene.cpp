@@ -63,6 +63,14 @@ void validate_mesh(const MeshDesc& m, size_t index, size_t material_count) {
          std::to_string(m.corner_reflectance.size()) + " corner reflectances");
   for (size_t k = 0; k < m.corner_reflectance.size(); ++k)
     check_reflectance(m.corner_reflectance[k], who + ", face corner " + std::to_string(k));
+  if (!m.corner_emission.empty() && m.corner_emission.size() != corners)
+    fail(who + ": " + std::to_string(corners) + " face corners but " + std::to_string(m.corner_emission.size()) +
+         " corner emissions");
+  for (size_t k = 0; k < m.corner_emission.size(); ++k) {
+    const dvec3& e = m.corner_emission[k];
+    if (!finite(e) || e.x < 0 || e.y < 0 || e.z < 0)
+      fail(who + ", face corner " + std::to_string(k) + ": emission must be finite and not negative");
+  }
 }
 
 }  // namespace

@@ -150,10 +150,11 @@ std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector
     if (scene.world.lit()) out.push_back(world_source(scene.world.scaled(scale), settings.samples_direct));
   }
   std::vector<CornerUnshot> emission(mesh.patches.size());
-  for (size_t p = 0; p < mesh.patches.size(); ++p)
-    emission[p].fill(mesh.patches[p].area > 0 && scene.meshes[mesh.patches[p].object].visible
-                         ? material(int(p)).emission
-                         : dvec3(0.0));
+  for (size_t p = 0; p < mesh.patches.size(); ++p) {
+    bool sends = mesh.patches[p].area > 0 && scene.meshes[mesh.patches[p].object].visible;
+    for (int c = 0; c < 4; ++c)  // both sides
+      emission[p][2 * c] = emission[p][2 * c + 1] = sends ? mesh.emission[4 * p + c] : dvec3(0.0);
+  }
   for (Source& s : patch_sources(emission, false, settings.samples_direct, scale, only)) out.push_back(std::move(s));
   return out;
 }
@@ -302,9 +303,9 @@ dvec3 Solver::Impl::corner_value(int slot, bool near) const {
   if (slot < 0) return dvec3(0.0);
   const Patch& patch = mesh.patches[slot / 4];
   if (!scene.meshes[patch.object].visible) return dvec3(0.0);  // it takes no part: no light, no emission
-  const Material& m = scene.materials[patch.material];
   int point = patch.point[slot % 4];
-  return m.emission + mesh.reflectance[slot] * (front[point] + (near ? near_direct_correction(point) : dvec3(0.0)));
+  return mesh.emission[slot] +
+         mesh.reflectance[slot] * (front[point] + (near ? near_direct_correction(point) : dvec3(0.0)));
 }
 
 Solver::Solver(SceneDesc scene, const Settings& settings)

@@ -84,3 +84,71 @@ def test_a_material_change_leaves_a_textured_objects_reflectance_alone():
 def test_bad_corner_reflectance_is_refused(rho, match):
     with pytest.raises(ValueError, match=match):
         lit_floor(rho)
+
+
+# ----------------------------------------------------------------------------- emission per corner
+def glowing_panel(corner_emission=None, emission=2.0):
+    """A 1 x 1 panel at height 1, facing down, over a 6 x 6 floor (both sides emit, as Cycles' mesh
+    lights do), nothing else: (solver, panel id, floor id)."""
+    scene = engine.Scene()
+    floor_material = scene.add_material((0.5, 0.5, 0.5))
+    glow = scene.add_material((0.0, 0.0, 0.0), (emission,) * 3)
+    floor = Mesh()
+    floor.add_face([(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], floor_material)
+    floor_id = floor.add_to(scene, refine="bilinear", patch_size=0.25)
+    panel = Mesh()
+    panel.add_face([(-0.5, -0.5, 1), (-0.5, 0.5, 1), (0.5, 0.5, 1), (0.5, -0.5, 1)], glow)
+    kwargs = {} if corner_emission is None else {"corner_emission": np.asarray(corner_emission, float)}
+    panel_id = panel.add_to(scene, refine="bilinear", patch_size=0.25, **kwargs)
+    settings = engine.Settings.preset("default")
+    settings.max_shots = 0   # direct light only
+    return engine.Solver(scene, settings), panel_id, floor_id
+
+
+def test_emission_per_corner_lights_as_its_interpolation_does():
+    plain, panel, floor = glowing_panel()
+    plain.solve()
+    given, _, _ = glowing_panel([(2.0, 2.0, 2.0)] * 4)
+    given.solve()
+    np.testing.assert_array_equal(given.refined(floor)[1], plain.refined(floor)[1])   # the material's: the same
+    # 1 to 3 across x, 2 on average: the panel shows it at its corners; below its middle the floor
+    # takes what a panel of 2 sends there (the slope cancels by symmetry); below its edges, what the
+    # slope's integral over the panel gives.
+    ramp = [(1.0,) * 3, (1.0,) * 3, (3.0,) * 3, (3.0,) * 3]
+    sloped, _, _ = glowing_panel(ramp)
+    sloped.solve()
+    np.testing.assert_allclose(sloped.corner_radiance(panel), np.array(ramp), rtol=1e-6)
+    middle = lambda s: radiance_at(s, floor, (0.0, 0.0))[1]   # noqa: E731
+    assert middle(sloped)[0] == pytest.approx(middle(plain)[0], rel=2e-3)
+    for x in (-0.5, 0.5, 1.0):
+        at, value = radiance_at(sloped, floor, (x, 0.0))
+        assert value[0] == pytest.approx(0.5 * below_ramp(at[0], at[1]), rel=0.01), at
+
+
+def below_ramp(x, y):
+    """What a point at (x, y, 0) takes, over pi, from the unit panel at height 1 sending 2 + 2 x'."""
+    n = 1000
+    u = (np.arange(n) + 0.5) / n - 0.5
+    px, py = np.meshgrid(u, u)
+    r2 = (px - x) ** 2 + (py - y) ** 2 + 1
+    return ((2 + 2 * px) / (np.pi * r2 ** 2)).sum() / n ** 2
+
+
+def radiance_at(solver, obj, xy):
+    """(position, radiance) of the patch corner of `obj` nearest `xy`."""
+    positions, radiance = solver.refined(obj)
+    i = np.argmin(np.linalg.norm(positions[:, :2] - xy, axis=1))
+    return positions[i], radiance[i]
+
+
+def test_a_material_change_leaves_a_textured_objects_emission_alone():
+    ramp = [(1.0,) * 3, (1.0,) * 3, (3.0,) * 3, (3.0,) * 3]
+    solver, panel, floor = glowing_panel(ramp)
+    solver.solve()
+    before = solver.refined(floor)[1]
+    solver.set_material(1, (0.0, 0.0, 0.0), (9.0, 9.0, 9.0))
+    solver.update()
+    np.testing.assert_allclose(solver.corner_radiance(panel), np.array(ramp), rtol=1e-6)
+    np.testing.assert_allclose(solver.refined(floor)[1], before, rtol=1e-9)
+    with pytest.raises(ValueError, match="emission must be finite and not negative"):
+        glowing_panel([(1.0,) * 3, (-1.0,) * 3, (1.0,) * 3, (1.0,) * 3])[0]

@@ -44,8 +44,10 @@ struct MeshDesc {
   std::vector<char> face_smooth;
   // Per face corner (face_vertices' order): the reflectance there, in place of the faces'
   // materials' (a colour texture sampled at the corners), interpolated across each face. Empty: the
-  // materials'. Their emission still counts.
+  // materials'.
   std::vector<dvec3> corner_reflectance;
+  // The same for the emitted radiance (an emission texture). Empty: the materials'.
+  std::vector<dvec3> corner_emission;
   bool smooth(int face) const {
     return face_smooth.empty() ? refine == Refinement::CatmullClark && level > 0 : face_smooth[face] != 0;
   }
