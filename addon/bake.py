@@ -98,9 +98,12 @@ def effects_of(sx):
     meshes = sx.visible_meshes
     used = {int(i) for m in meshes for i in np.unique(m.face_materials)}
     if any(max(sx.materials[i].emission) > 0 for i in used):
-        out.append("emission")
-    sources = {type(leaf) for m in meshes if m.corner_reflectance is not None
-               for i in np.unique(m.face_materials) for leaf in texture.leaves(sx.materials[i].texture)}
+        out.append("emission" + (" (varying over meshes)" if any(m.corner_emission is not None for m in meshes)
+                                 else ""))
+    sources = {type(leaf) for m in meshes for i in np.unique(m.face_materials)
+               for source in (sx.materials[i].texture if m.corner_reflectance is not None else None,
+                              sx.materials[i].emission_texture if m.corner_emission is not None else None)
+               for leaf in texture.leaves(source)}
     if texture.TextureRef in sources:
         out.append("colour textures (sampled at face corners)")
     if texture.AttributeRef in sources:
@@ -149,7 +152,8 @@ def _same_layout(a, b):
     return (a.refine == b.refine and a.level == b.level and a.positions.shape == b.positions.shape
             and np.array_equal(a.face_sizes, b.face_sizes) and np.array_equal(a.face_vertices, b.face_vertices)
             and np.array_equal(a.face_materials, b.face_materials)
-            and _same(a.smooth, b.smooth) and _same(a.corner_reflectance, b.corner_reflectance))
+            and _same(a.smooth, b.smooth) and _same(a.corner_reflectance, b.corner_reflectance)
+            and _same(a.corner_emission, b.corner_emission))
 
 
 def align_export(old, new):

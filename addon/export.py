@@ -41,10 +41,11 @@ class MaterialExport:
     reflectance: tuple            # rho, linear RGB
     emission: tuple               # emitted radiance, linear RGB, two-sided
     warnings: list = field(default_factory=list)
-    # What varies the BSDF's colour over a mesh (texture.TextureRef, AttributeRef or MixRef):
+    # What varies the BSDF's colour over a mesh (texture.TextureRef, AttributeRef, MixRef or AdjustRef):
     # reflectance per face corner (MeshExport.corner_reflectance); `reflectance` is what texture.mean_of
     # gives where it cannot be read there (an image's mean; black for an attribute, as in Cycles).
     texture: object = None
+    emission_texture: object = None   # the same for the emission colour (MeshExport.corner_emission)
 
 
 @dataclass
@@ -66,6 +67,7 @@ class MeshExport:
     visible: bool = True          # False: hidden from render; the engine keeps it out of the lighting
     smooth: np.ndarray = None     # (F,) bool, Shade Smooth per face (Cycles bakes with interpolated normals)
     corner_reflectance: np.ndarray = None  # (K,3) per exported corner where a material has a texture
+    corner_emission: np.ndarray = None     # (K,3) the same where a material's emission has one
     object_type: str = 'MESH'     # the Blender object's: the others light the scene but hold no colours
 
 
@@ -163,9 +165,10 @@ def _colour(node, name, warnings, textures):
     return np.ones(3)
 
 
-def _shader(node, warnings, depth=0, textures=None):
-    """(reflectance, emission) of a shader node, as numpy (3,) arrays. With `textures` (a list), an
-    image texture on the node's own colour is collected there and the colour taken as one."""
+def _shader(node, warnings, depth=0, textures=None, emissions=None):
+    """(reflectance, emission) of a shader node, as numpy (3,) arrays. With `textures` (a list), what
+    varies the node's own colour over a mesh is collected there and the colour taken as one; with
+    `emissions`, the same for its emission colour."""
     zero = np.zeros(3)
     if node is None or depth > 16:
         return zero, zero
@@ -173,18 +176,17 @@ def _shader(node, warnings, depth=0, textures=None):
     if t == 'BSDF_DIFFUSE':
         return _colour(node, "Color", warnings, textures), zero
     if t == 'EMISSION':
-        c = np.array(_input_value(node, "Color", warnings)[:3])
+        c = _colour(node, "Color", warnings, emissions)
         return zero, c * float(_input_value(node, "Strength", warnings))
     if t == 'BSDF_PRINCIPLED':
         base = _colour(node, "Base Color", warnings, textures)
         metal = float(_input_value(node, "Metallic", warnings) or 0.0)
         trans = float(_input_value(node, "Transmission", warnings) or 0.0) \
             if node.inputs.get("Transmission") is not None else 0.0
-        ecol = _input_value(node, "Emission", warnings)
-        if ecol is None:                                  # Blender 4.x
-            ecol = _input_value(node, "Emission Color", warnings)
+        ecol = _colour(node, "Emission" if node.inputs.get("Emission") is not None else "Emission Color",  # 4.x
+                       warnings, emissions)
         estr = _input_value(node, "Emission Strength", warnings)
-        em = np.array(ecol[:3]) * (1.0 if estr is None else float(estr))
+        em = ecol * (1.0 if estr is None else float(estr))
         if metal > 0 or trans > 0:
             warnings.append(f"{node.name}: metallic/transmission treated as diffuse loss")
         return base * (1 - metal) * (1 - trans), em
@@ -229,15 +231,20 @@ def material_values(mat, images=None):
         out = _output_node(mat.node_tree)
         if out is None:
             return MaterialExport(mat.name, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), ["no material output"])
-        textures = []
-        rho, em = _shader(_linked(out.inputs["Surface"]), warnings, textures=textures)
-        if textures:   # where it cannot be read at the corners (no UVs...): texture.mean_of
-            source = textures[0]
+        textures, emissions = [], []
+        rho, em = _shader(_linked(out.inputs["Surface"]), warnings, textures=textures, emissions=emissions)
+        # Where they cannot be read at the corners (no UVs...): texture.mean_of.
+        source = textures[0] if textures else None
+        if source is not None:
             source.factor = rho
-            rho = _below_one(colour_texture.mean_of(source, images), "its colours", warnings)
-            return MaterialExport(mat.name, _rgb(rho), _rgb(em), warnings, source)
-    else:
-        rho, em = np.array(mat.diffuse_color[:3]), np.zeros(3)
+            rho = colour_texture.mean_of(source, images)
+        emission_source = emissions[0] if emissions else None
+        if emission_source is not None:
+            emission_source.factor = em
+            em = np.maximum(colour_texture.mean_of(emission_source, images), 0.0)
+        return MaterialExport(mat.name, _rgb(_below_one(rho, "its colours", warnings)), _rgb(em), warnings,
+                              source, emission_source)
+    rho, em = np.array(mat.diffuse_color[:3]), np.zeros(3)
     return MaterialExport(mat.name, _rgb(_below_one(rho, "its colours", warnings)), _rgb(em), warnings)
 
 
@@ -370,13 +377,15 @@ def _is_animated(ob):
     return False
 
 
-def _corner_reflectance(me, loops, sizes, face_materials, materials, images, label, warnings):
-    """(K,3) reflectance per exported corner, where a face's material varies over the mesh (a texture
-    sampled at the corners' UVs, a colour attribute read there, Mix nodes of those); None when none does."""
-    textured = {int(i) for i in np.unique(face_materials) if materials[i].texture is not None}
+def _corner_values(me, loops, sizes, face_materials, materials, images, label, warnings, emission=False):
+    """(K,3) reflectance (emission) per exported corner, where a face's material's colour (emission
+    colour) varies over the mesh: a texture sampled at the corners' UVs, a colour attribute read
+    there, nodes of those; None when none does."""
+    source_of = (lambda m: m.emission_texture) if emission else (lambda m: m.texture)
+    textured = {int(i) for i in np.unique(face_materials) if source_of(materials[i]) is not None}
     if not textured:
         return None
-    per_material = np.array([m.reflectance for m in materials], np.float64).reshape(-1, 3)
+    per_material = np.array([m.emission if emission else m.reflectance for m in materials], np.float64).reshape(-1, 3)
     rho = np.repeat(per_material[face_materials], sizes, axis=0)
     corner_material = np.repeat(face_materials, sizes)
     starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
@@ -417,8 +426,8 @@ def _corner_reflectance(me, loops, sizes, face_materials, materials, images, lab
 
     for i in sorted(textured):
         at = corner_material == i
-        rho[at] = values(materials[i].texture, at, materials[i].name)
-    return _below_one(rho, f"{label}'s texture colours", warnings)
+        rho[at] = values(source_of(materials[i]), at, materials[i].name)
+    return np.maximum(rho, 0.0) if emission else _below_one(rho, f"{label}'s texture colours", warnings)
 
 
 def _corner_keys(co, sizes, fv):
@@ -494,7 +503,8 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
             original = _original_loops(orig.data, co, sizes, fv)
             matches = original is not None
         fm = lut[np.clip(mi, 0, len(lut) - 1)]
-        rho = _corner_reflectance(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings)
+        rho = _corner_values(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings)
+        emitted = _corner_values(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings, True)
         smooth = np.empty(len(me.polygons), bool)
         me.polygons.foreach_get("use_smooth", smooth)
         if me.use_auto_smooth and smooth.any():
@@ -504,7 +514,8 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
         cleanup()
     return MeshExport(name or ob_eval.name, co, sizes, fv, fm.astype(np.int32),
                       np.array(matrix, np.float64), refine, level, original, matches,
-                      _is_animated(orig), orig.name, smooth=smooth, corner_reflectance=rho, object_type=orig.type)
+                      _is_animated(orig), orig.name, smooth=smooth, corner_reflectance=rho, object_type=orig.type,
+                      corner_emission=emitted)
 
 
 # ----------------------------------------------------------------------------- lights
@@ -668,7 +679,8 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
         ids[m.name] = first[1] + s.add_mesh(
             m.positions, m.face_sizes, m.face_vertices, np.asarray(m.face_materials, np.int32), m.transform,
             refine=m.refine, level=m.level, patch_size=patch_size, dynamic=bool(dyn), name=m.name,
-            visible=m.visible, smooth=m.smooth, corner_reflectance=m.corner_reflectance)
+            visible=m.visible, smooth=m.smooth, corner_reflectance=m.corner_reflectance,
+            corner_emission=m.corner_emission)
     for l in sx.lights[first[2]:]:
         getattr(s, f"add_{l.kind}_light")(*lamp_args(l))
     if sx.world_map is not None:

@@ -87,10 +87,11 @@ def direct_light(export, ob):
     return solver.corner_radiance(ids[ob.name])
 
 
-def direct_light_grid(subdivisions, size, samples=4):
-    """(scene, grid): an empty scene that Cycles bakes with direct light only (exact at any sample
-    count for lamps without a size), and a grid in it."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+def direct_light_grid(subdivisions, size, samples=4, keep=False):
+    """(scene, grid): an empty scene (`keep`: the scene as it is) that Cycles bakes with direct light
+    only (exact at any sample count for lamps without a size), and a grid in it."""
+    if not keep:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     cycles_settings.unbiased(scene, samples, 0, 0)
     scene.render.bake.target = 'VERTEX_COLORS'

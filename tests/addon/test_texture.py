@@ -21,11 +21,12 @@ from test_shading import cycles_corners, diffuse, direct_light, direct_light_gri
 TEXELS = np.random.default_rng(7).uniform(0.05, 0.9, (4, 4, 3))
 
 
-def textured_grid(interpolation, colorspace, uv_scale, mapping=None):
-    """A 5 x 5-quad grid whose Diffuse BSDF takes its colour from the 4 x 4 image, under a lamp.
+def textured_grid(interpolation, colorspace, uv_scale, mapping=None, subdivisions=6):
+    """A 2 m grid (5 x 5 quads: `subdivisions` vertices a side) whose Diffuse BSDF takes its colour
+    from the 4 x 4 image, under a lamp.
     `mapping`: (vector type, location, rotation, scale) of a Mapping node between a Texture
     Coordinate node's UV and the image."""
-    scene, ob = direct_light_grid(6, 2.0)
+    scene, ob = direct_light_grid(subdivisions, 2.0)
     uv = np.empty(len(ob.data.loops) * 2, np.float32)
     ob.data.uv_layers.active.data.foreach_get("uv", uv)
     ob.data.uv_layers.active.data.foreach_set("uv", uv * uv_scale)   # past 1: the image repeats
@@ -259,3 +260,36 @@ def test_adjusted_colours_reach_the_corners_as_cycles_bakes_them(addon, kind, va
     tree.links.new(tree.nodes["Image Texture"].outputs["Color"], node.inputs["Color"])
     tree.links.new(node.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
     corners_as_cycles_bakes_them(addon, ob, f"{kind[10:]} {values}")
+
+
+@pytest.mark.parametrize("shader", ["ShaderNodeEmission", "ShaderNodeBsdfPrincipled"])
+def test_an_emission_texture_glows_and_lights_as_cycles_bakes_it(addon, shader):
+    """The texture on an emission colour (an Emission shader's, a Principled BSDF's): the glowing
+    grid shows it at its corners, and a floor just below takes its pattern. The grid is finer than
+    the texels: what a face shows is its corners' colours interpolated (with the 5 x 5-quad grid of
+    the tests above, faces wider than texels, the floor is 9% RMS off)."""
+    ob = textured_grid("Linear", "sRGB", 1.0, subdivisions=24)
+    bpy.data.objects.remove(bpy.data.objects["Lamp"])
+    tree = ob.active_material.node_tree
+    glow = tree.nodes.new(shader)
+    if shader == "ShaderNodeEmission":
+        glow.inputs["Strength"].default_value = 3.0
+        colour = glow.inputs["Color"]
+    else:
+        glow.inputs["Base Color"].default_value = (0, 0, 0, 1)
+        glow.inputs["Emission Strength"].default_value = 3.0
+        colour = glow.inputs["Emission"]
+    tree.links.new(tree.nodes["Image Texture"].outputs["Color"], colour)
+    tree.links.new(glow.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
+    ob.rotation_euler = (np.pi, 0, 0)   # facing down
+    ob.location.z = 0.3
+    scene, floor = direct_light_grid(12, 3.0, samples=1024, keep=True)
+    diffuse(floor)
+    sx = addon.export.export_scene()
+    assert sx.mesh(ob.name).corner_emission is not None
+    bpy.ops.object.select_all(action='DESELECT')   # Cycles bakes what is selected
+    glowing = reference.relative_rms(direct_light(addon.export, ob), cycles_corners(ob))
+    ob.select_set(False)
+    lit = reference.relative_rms(direct_light(addon.export, floor), cycles_corners(floor))
+    print(f"\n  {shader[10:]}: the grid {100 * glowing:.3f}%, the floor {100 * lit:.2f}% RMS against Cycles", end="")
+    assert glowing < 0.003 and lit < 0.015   # 0.86%
