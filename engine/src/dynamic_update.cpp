@@ -288,14 +288,15 @@ void Solver::Impl::change_material(int index, const Material& m) {
     const Patch& patch = mesh.patches[p];
     emitted[p].fill(dvec3(0.0));
     if (patch.material != index) continue;
-    bool own_rho = scene.meshes[patch.object].corner_reflectance.empty();
-    bool own_emission = scene.meshes[patch.object].corner_emission.empty();
-    if (own_rho) std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
-    if (own_emission) std::fill_n(mesh.emission.begin() + 4 * p, 4, m.emission);
+    // Whether the patch takes the material's reflectance (emission), or has its own per corner.
+    bool material_rho = scene.meshes[patch.object].corner_reflectance.empty();
+    bool material_emission = scene.meshes[patch.object].corner_emission.empty();
+    if (material_rho) std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
+    if (material_emission) std::fill_n(mesh.emission.begin() + 4 * p, 4, m.emission);
     // A hidden object emits nothing, and gathers nothing to reflect.
     if (patch.area == 0 || !scene.meshes[patch.object].visible) continue;
-    if (own_emission) emitted[p].fill(emission);
-    if (!own_rho) continue;
+    if (material_emission) emitted[p].fill(emission);
+    if (!material_rho) continue;
     for (int c = 0; c < 4; ++c) {
       int i = patch.point[c];
       double onward = mesh.onward[4 * p + c];
