@@ -377,10 +377,12 @@ def _is_animated(ob):
     return False
 
 
-def _corner_values(me, loops, sizes, face_materials, materials, images, label, warnings, emission=False):
+def _corner_values(me, loops, sizes, face_materials, materials, images, label, warnings, by_layer,
+                   emission=False):
     """(K,3) reflectance (emission) per exported corner, where a face's material's colour (emission
     colour) varies over the mesh: a texture sampled at the corners' UVs, a colour attribute read
-    there, nodes of those; None when none does."""
+    there, nodes of those; None when none does. `by_layer`: the corners' UVs per map, read once for
+    both (several textured materials may share one)."""
     source_of = (lambda m: m.emission_texture) if emission else (lambda m: m.texture)
     textured = {int(i) for i in np.unique(face_materials) if source_of(materials[i]) is not None}
     if not textured:
@@ -389,7 +391,6 @@ def _corner_values(me, loops, sizes, face_materials, materials, images, label, w
     rho = np.repeat(per_material[face_materials], sizes, axis=0)
     corner_material = np.repeat(face_materials, sizes)
     starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-    by_layer = {}   # UVs per map, read once: several textured materials may share one
 
     def uv_map(name):
         """The exported corners' UVs of a map ("": the active render one), or None."""
@@ -503,8 +504,9 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
             original = _original_loops(orig.data, co, sizes, fv)
             matches = original is not None
         fm = lut[np.clip(mi, 0, len(lut) - 1)]
-        rho = _corner_values(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings)
-        emitted = _corner_values(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings, True)
+        uvs = {}
+        rho = _corner_values(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings, uvs)
+        emitted = _corner_values(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings, uvs, True)
         smooth = np.empty(len(me.polygons), bool)
         me.polygons.foreach_get("use_smooth", smooth)
         if me.use_auto_smooth and smooth.any():
