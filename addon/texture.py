@@ -118,11 +118,11 @@ def colour_mix(socket, warnings, depth=0):
     if fac.is_linked:
         warnings.append(f"{node.name}: its factor is linked; its unlinked value is used")
 
-    side = lambda s: _input_colour(node, s, warnings, depth)   # noqa: E731
     t = float(fac.default_value)
     if node.type == 'MIX_RGB' or node.clamp_factor:
         t = min(max(t, 0.0), 1.0)
-    return MixRef(node.blend_type, t, side(a), side(b), clamp, np.ones(3))
+    return MixRef(node.blend_type, t, _input_colour(node, a, warnings, depth), _input_colour(node, b, warnings, depth),
+                  clamp, np.ones(3))
 
 
 def _input_colour(node, socket, warnings, depth):
