@@ -96,6 +96,8 @@ def environment_turn(node, warnings):
         return np.eye(3)
     source = vector.links[0].from_node
     mapping = texture.mapping_of(source, warnings) if source.type == 'MAPPING' else None
+    if source.type == 'MAPPING' and mapping is None:
+        return np.eye(3)   # mapping_of said why
     inner = source.inputs["Vector"].links[0] if mapping is not None and source.inputs["Vector"].is_linked else None
     if inner is None or inner.from_node.type != 'TEX_COORD' or inner.from_socket.identifier != 'Generated':
         warnings.append(f"{node.name}: directions from a {source.type} node are not followed (a Mapping "
