@@ -231,8 +231,8 @@ PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
 
 namespace {
 
-int bilinear_levels_in(const PatchMesh& pm, const MeshDesc& mesh, const Settings& settings) {
-  return bilinear_level(mesh, mesh.patch_size > 0 ? mesh.patch_size : settings.patch_size_relative * pm.diagonal);
+std::vector<int> face_levels_in(const PatchMesh& pm, const MeshDesc& mesh, const Settings& settings) {
+  return face_levels(mesh, mesh.patch_size > 0 ? mesh.patch_size : settings.patch_size_relative * pm.diagonal);
 }
 
 }  // namespace
@@ -241,12 +241,13 @@ void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes
   long long total = (long long)pm.patches.size(), largest = -1;
   const MeshDesc* worst = nullptr;
   for (const MeshDesc& mesh : meshes) {
-    long long n = quad_count(mesh, bilinear_levels_in(pm, mesh, settings));
+    long long n = quad_count(mesh, face_levels_in(pm, mesh, settings));
     total += n;
     if (n > largest) largest = n, worst = &mesh;
   }
   if (total <= settings.max_patches) return;
-  int level = refinement_level(*worst, bilinear_levels_in(pm, *worst, settings));
+  std::vector<int> levels = face_levels_in(pm, *worst, settings);
+  int level = levels.empty() ? 0 : *std::max_element(levels.begin(), levels.end());
   throw std::invalid_argument(
       "the scene would refine to " + std::to_string(total) + " patches, past the limit of " +
       std::to_string(settings.max_patches) + " (about 2.3 KB each, solved); object '" + worst->name + "' alone makes " +
@@ -254,16 +255,15 @@ void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes
       (worst->face_sizes.size() == 1 ? " face" : " faces") +
       (worst->refine == Refinement::CatmullClark
            ? " at subdivision level " + std::to_string(level) + ": lower the level)"
-           : ", each split in four " + std::to_string(level) +
-                 " times to bring the object's longest edge down to the patch size: raise the patch size, or "
-                 "give the long faces an object of their own)"));
+           : ", each split in four up to " + std::to_string(level) +
+                 " times to bring its edges down to the patch size: raise the patch size)"));
 }
 
 void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
                 const Settings& settings) {
   ObjectPatches obj;
-  obj.level = bilinear_levels_in(pm, mesh, settings);
-  RefinedMesh refined = refine_mesh(mesh, obj.level);
+  obj.face_levels = face_levels_in(pm, mesh, settings);
+  RefinedMesh refined = refine_mesh(mesh, obj.face_levels);
   obj.patch_begin = int(pm.patches.size());
   obj.vertex_begin = int(pm.vertices.size());
   add_patches(pm, mesh, refined, materials, int(pm.objects.size()), obj);
@@ -281,7 +281,7 @@ namespace radiosity {
 
 RefinedMesh refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh) {
   const ObjectPatches& obj = pm.objects.at(object);
-  RefinedMesh refined = refine_mesh(mesh, obj.level);
+  RefinedMesh refined = refine_mesh(mesh, obj.face_levels);
   bool mirrored = glm::determinant(glm::dmat3(mesh.transform)) < 0;
   if (int(refined.positions.size()) != obj.vertex_end - obj.vertex_begin ||
       int(refined.quads.size()) != obj.patch_end - obj.patch_begin || mirrored != obj.mirrored)

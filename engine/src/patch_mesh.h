@@ -39,7 +39,7 @@ struct ObjectPatches {
   int patch_begin = 0, patch_end = 0;
   int point_begin = 0, point_end = 0;
   int vertex_begin = 0, vertex_end = 0;
-  int level = 0;          // bilinear levels it was refined with: a moved object keeps its patches
+  std::vector<int> face_levels;  // what it was refined with (face_levels): a moved object keeps its patches
   int degenerate = 0;     // zero-area patches
   bool mirrored = false;  // transform flips handedness
   std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place

@@ -1,5 +1,7 @@
 #include "refine.h"
 
+#include "radiosity/form_factor.h"
+
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 #include <opensubdiv/far/topologyRefinerFactory.h>
@@ -8,6 +10,8 @@
 #include <cmath>
 #include <memory>
 #include <stdexcept>
+#include <unordered_map>
+#include <utility>
 
 namespace radiosity {
 
@@ -105,46 +109,8 @@ RefinedMesh copy_faces(const MeshDesc& mesh) {
 // Whether refine_mesh takes the mesh to its Catmull-Clark limit surface (else splits it bilinearly).
 bool to_limit_surface(const MeshDesc& mesh) { return mesh.refine == Refinement::CatmullClark && mesh.level > 0; }
 
-}  // namespace
-
-int bilinear_level(const MeshDesc& mesh, double patch_size) {
-  if (!(patch_size > 0)) return 0;
-  double longest = 0.0;
-  int offset = 0;
-  for (int n : mesh.face_sizes) {
-    for (int i = 0; i < n; ++i) {
-      dvec3 a = dvec3(mesh.transform * glm::dvec4(mesh.positions[mesh.face_vertices[offset + i]], 1));
-      dvec3 b = dvec3(mesh.transform *
-                      glm::dvec4(mesh.positions[mesh.face_vertices[offset + (i + 1) % n]], 1));
-      longest = std::max(longest, glm::length(b - a));
-    }
-    offset += n;
-  }
-  if (longest <= patch_size) return 0;
-  return std::min(kMaxLevel, int(std::ceil(std::log2(longest / patch_size))));
-}
-
-int refinement_level(const MeshDesc& mesh, int bilinear_levels) {
-  int level = to_limit_surface(mesh) ? std::min(mesh.level, kMaxLevel)
-              : mesh.refine == Refinement::Bilinear ? bilinear_levels
-                                                    : 0;
-  // n-gons need one bilinear step to become quads.
-  if (level == 0 && !all_quads_or_triangles(mesh)) level = 1;
-  return level;
-}
-
-long long quad_count(const MeshDesc& mesh, int bilinear_levels) {
-  int level = refinement_level(mesh, bilinear_levels);
-  if (level == 0) return (long long)mesh.face_sizes.size();
-  // The first level splits an n-gon into n quads (a quad into 4); every later one splits each in 4.
-  long long after_first = 1LL << (2 * (level - 1));
-  long long count = 0;
-  for (int n : mesh.face_sizes) count += n * after_first;
-  return count;
-}
-
-RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
-  int level = refinement_level(mesh, bilinear_levels);
+// Every face through `level` steps, by OpenSubdiv.
+RefinedMesh refine_uniformly(const MeshDesc& mesh, int level) {
   bool smooth = to_limit_surface(mesh);
   if (level == 0) return copy_faces(mesh);
 
@@ -263,6 +229,187 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels) {
     for (const Point3& n : normals) out.normals.push_back(unit_or_zero(n.p));
   }
   return out;
+}
+
+// Bilinear refinement with a level of its own per face: each face split alone into 2^level x 2^level
+// quads (an n-gon, or a triangle, first into quads about its centre, as a bilinear step makes). Where
+// faces of different levels meet, the finer one's points on the edge lie on the coarser one's edge
+// (T-junctions). The edge is straight, so rays find no gap along it; a receiving point there simply
+// is not a corner of the coarser patch, which it sees edge-on or along its own junction.
+RefinedMesh split_faces(const MeshDesc& mesh, const std::vector<int>& levels) {
+  // Where a point lies along a segment: `at` parts in kWhole of the way.
+  constexpr long long kWhole = 1LL << kMaxLevel;
+  RefinedMesh out;
+  out.positions = mesh.positions;
+  std::vector<dvec3> normals;  // unnormalised, as OpenSubdiv's averages are
+  if (any_smooth(mesh)) normals = vertex_normals(mesh);
+  out.input_vertex.resize(mesh.positions.size());
+  for (size_t i = 0; i < out.input_vertex.size(); ++i) out.input_vertex[i] = int(i);
+  auto add_vertex = [&](const dvec3& p, const dvec3& n) {
+    out.positions.push_back(p);
+    if (!normals.empty()) normals.push_back(n);
+    return int(out.positions.size()) - 1;
+  };
+  // The point `at` along the segment from vertex a to b (refined indices). Points on edges are shared
+  // by the faces on both sides, found by the segment and where on it they lie.
+  struct EdgeHash {
+    size_t operator()(const std::pair<long long, long long>& k) const { return std::hash<long long>()(k.first * 1031 + k.second); }
+  };
+  std::unordered_map<std::pair<long long, long long>, int, EdgeHash> on_edge;  // ((a, b), at), a < b
+  auto point_on = [&](int a, int b, long long at) {
+    if (a > b) std::swap(a, b), at = kWhole - at;
+    if (at == 0) return a;
+    if (at == kWhole) return b;
+    auto [it, fresh] = on_edge.try_emplace({(long long)a << 32 | b, at}, -1);
+    if (fresh) {
+      double t = double(at) / double(kWhole);
+      it->second = add_vertex((1 - t) * out.positions[a] + t * out.positions[b],
+                              normals.empty() ? dvec3(0.0) : (1 - t) * normals[a] + t * normals[b]);
+    }
+    return it->second;
+  };
+  // A quad of the face's first step: its corners, its colours there, and its sides as parts of the
+  // segments they lie on (a side from corner c to c + 1 runs `from` to `to` along a to b).
+  struct Side {
+    int a, b;
+    long long from, to;
+  };
+  struct Piece {
+    int corner[4];
+    CornerColours colour[4];
+    Side side[4];
+  };
+  auto split = [&](const Piece& piece, int steps, int face) {
+    std::vector<int> grid((steps + 1) * (steps + 1));
+    auto along = [&](const Side& s, int i) { return point_on(s.a, s.b, s.from + (s.to - s.from) * i / steps); };
+    dvec3 corner[4], corner_normal[4];
+    for (int c = 0; c < 4; ++c) {
+      corner[c] = out.positions[piece.corner[c]];
+      corner_normal[c] = normals.empty() ? dvec3(0.0) : normals[piece.corner[c]];
+    }
+    for (int j = 0; j <= steps; ++j)
+      for (int i = 0; i <= steps; ++i) {
+        int& v = grid[j * (steps + 1) + i];
+        if (j == 0) v = along(piece.side[0], i);
+        else if (i == steps) v = along(piece.side[1], j);
+        else if (j == steps) v = along(piece.side[2], steps - i);
+        else if (i == 0) v = along(piece.side[3], steps - j);
+        else {
+          double u = double(i) / steps, w = double(j) / steps;
+          v = add_vertex(bilinear(corner, u, w), bilinear(corner_normal, u, w));
+        }
+      }
+    bool with_rho = !mesh.corner_reflectance.empty(), with_emission = !mesh.corner_emission.empty();
+    for (int j = 0; j < steps; ++j)
+      for (int i = 0; i < steps; ++i) {
+        const int g[4][2] = {{i, j}, {i + 1, j}, {i + 1, j + 1}, {i, j + 1}};
+        std::array<int, 4> quad;
+        std::array<dvec3, 4> rho, emission;
+        for (int c = 0; c < 4; ++c) {
+          quad[c] = grid[g[c][1] * (steps + 1) + g[c][0]];
+          double u = double(g[c][0]) / steps, w = double(g[c][1]) / steps;
+          double weight[4] = {(1 - u) * (1 - w), u * (1 - w), u * w, (1 - u) * w};
+          CornerColours at;
+          for (int k = 0; k < 4; ++k) at.AddWithWeight(piece.colour[k], weight[k]);
+          rho[c] = at.reflectance, emission[c] = at.emission;
+        }
+        out.quads.push_back(quad);
+        out.quad_face.push_back(face);
+        if (with_rho) out.corner_reflectance.push_back(rho);
+        if (with_emission) out.corner_emission.push_back(emission);
+      }
+  };
+
+  int offset = 0;
+  for (size_t f = 0; f < mesh.face_sizes.size(); ++f) {
+    int n = mesh.face_sizes[f];
+    const int* v = &mesh.face_vertices[offset];
+    std::vector<CornerColours> colour(n);
+    for (int k = 0; k < n; ++k) {
+      if (!mesh.corner_reflectance.empty()) colour[k].reflectance = mesh.corner_reflectance[offset + k];
+      if (!mesh.corner_emission.empty()) colour[k].emission = mesh.corner_emission[offset + k];
+    }
+    offset += n;
+    int level = levels[f];
+    if (n == 4) {
+      Piece face{{v[0], v[1], v[2], v[3]}, {colour[0], colour[1], colour[2], colour[3]}, {}};
+      for (int c = 0; c < 4; ++c) face.side[c] = {v[c], v[(c + 1) % 4], 0, kWhole};
+      split(face, 1 << level, int(f));
+      continue;
+    }
+    if (level == 0) {  // a triangle, as copy_faces takes it
+      Piece face{{v[0], v[1], v[2], v[2]}, {colour[0], colour[1], colour[2], colour[2]}, {}};
+      face.side[0] = {v[0], v[1], 0, kWhole}, face.side[1] = {v[1], v[2], 0, kWhole};
+      face.side[2] = {v[2], v[0], 0, 0}, face.side[3] = {v[2], v[0], 0, kWhole};
+      split(face, 1, int(f));
+      continue;
+    }
+    dvec3 centre(0.0), centre_normal(0.0);
+    CornerColours mean;
+    for (int k = 0; k < n; ++k) {
+      centre += out.positions[v[k]] / double(n);
+      if (!normals.empty()) centre_normal += normals[v[k]] / double(n);
+      mean.AddWithWeight(colour[k], 1.0 / n);
+    }
+    int middle = add_vertex(centre, centre_normal);
+    for (int k = 0; k < n; ++k) {
+      int prev = v[(k + n - 1) % n], next = v[(k + 1) % n];
+      int to_next = point_on(v[k], next, kWhole / 2), from_prev = point_on(prev, v[k], kWhole / 2);
+      CornerColours half_next, half_prev;
+      half_next.AddWithWeight(colour[k], 0.5), half_next.AddWithWeight(colour[(k + 1) % n], 0.5);
+      half_prev.AddWithWeight(colour[(k + n - 1) % n], 0.5), half_prev.AddWithWeight(colour[k], 0.5);
+      Piece quad{{v[k], to_next, middle, from_prev}, {colour[k], half_next, mean, half_prev}, {}};
+      quad.side[0] = {v[k], next, 0, kWhole / 2};
+      quad.side[1] = {to_next, middle, 0, kWhole};
+      quad.side[2] = {middle, from_prev, 0, kWhole};
+      quad.side[3] = {prev, v[k], kWhole / 2, kWhole};
+      split(quad, 1 << (level - 1), int(f));
+    }
+  }
+  for (const dvec3& n : normals) out.normals.push_back(unit_or_zero(n));
+  return out;
+}
+
+}  // namespace
+
+std::vector<int> face_levels(const MeshDesc& mesh, double patch_size) {
+  size_t faces = mesh.face_sizes.size();
+  if (mesh.refine != Refinement::Bilinear) {
+    int level = to_limit_surface(mesh) ? std::min(mesh.level, kMaxLevel) : 0;
+    if (level == 0 && !all_quads_or_triangles(mesh)) level = 1;
+    return std::vector<int>(faces, level);
+  }
+  std::vector<int> levels(faces, 0);
+  int offset = 0;
+  for (size_t f = 0; f < faces; ++f) {
+    int n = mesh.face_sizes[f];
+    double longest = 0.0;
+    for (int i = 0; i < n; ++i) {
+      dvec3 a = dvec3(mesh.transform * glm::dvec4(mesh.positions[mesh.face_vertices[offset + i]], 1));
+      dvec3 b = dvec3(mesh.transform * glm::dvec4(mesh.positions[mesh.face_vertices[offset + (i + 1) % n]], 1));
+      longest = std::max(longest, glm::length(b - a));
+    }
+    offset += n;
+    int level = patch_size > 0 && longest > patch_size
+                    ? std::min(kMaxLevel, int(std::ceil(std::log2(longest / patch_size))))
+                    : 0;
+    levels[f] = std::max(level, n > 4 ? 1 : 0);
+  }
+  return levels;
+}
+
+long long quad_count(const MeshDesc& mesh, const std::vector<int>& levels) {
+  // The first step splits an n-gon into n quads (a quad into 4); every later one splits each in 4.
+  long long count = 0;
+  for (size_t f = 0; f < mesh.face_sizes.size(); ++f)
+    count += levels[f] == 0 ? 1 : mesh.face_sizes[f] * (1LL << (2 * (levels[f] - 1)));
+  return count;
+}
+
+RefinedMesh refine_mesh(const MeshDesc& mesh, const std::vector<int>& levels) {
+  if (levels.empty() || std::all_of(levels.begin(), levels.end(), [&](int l) { return l == levels[0]; }))
+    return refine_uniformly(mesh, levels.empty() ? 0 : levels[0]);
+  return split_faces(mesh, levels);
 }
 
 }  // namespace radiosity

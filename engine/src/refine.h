@@ -1,4 +1,5 @@
-// Refinement of an input polygon mesh into bilinear patches (quads) with OpenSubdiv.
+// Refinement of an input polygon mesh into bilinear patches (quads): with OpenSubdiv, or face by
+// face where a bilinear mesh's faces need different levels.
 #pragma once
 
 #include "radiosity/scene.h"
@@ -21,13 +22,15 @@ struct RefinedMesh {
   std::vector<std::array<dvec3, 4>> corner_reflectance, corner_emission;
 };
 
-// Bilinear levels needed for the mesh's longest world-space edge to come down to patch_size.
-int bilinear_level(const MeshDesc& mesh, double patch_size);
+// Per input face, the bilinear steps refine_mesh takes it through. Catmull-Clark takes the mesh's
+// level everywhere. A bilinear mesh splits each face as far as its own longest world-space edge
+// needs to come down to patch_size: a floor and the small faces of the furniture joined to it are
+// not split alike. An n-gon takes at least one step (into quads); in a mesh not split bilinearly,
+// one n-gon makes every face take it.
+std::vector<int> face_levels(const MeshDesc& mesh, double patch_size);
 
-// `bilinear_levels` applies to Refinement::Bilinear; Catmull-Clark uses mesh.level.
-RefinedMesh refine_mesh(const MeshDesc& mesh, int bilinear_levels);
-// The levels refine_mesh applies, and the quads it makes, worked out without refining.
-int refinement_level(const MeshDesc& mesh, int bilinear_levels);
-long long quad_count(const MeshDesc& mesh, int bilinear_levels);
+RefinedMesh refine_mesh(const MeshDesc& mesh, const std::vector<int>& levels);
+// The quads refine_mesh makes, worked out without refining.
+long long quad_count(const MeshDesc& mesh, const std::vector<int>& levels);
 
 }  // namespace radiosity

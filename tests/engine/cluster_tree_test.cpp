@@ -27,12 +27,13 @@ ClusterTree floor_and_slope(double rise, PatchMesh& mesh) {
   return ClusterTree::build(mesh);
 }
 
-// Whether all of a node's patches lie on the floor (`floor`) or all on the slope. Both faces are
-// split alike, the floor's first: the patch mesh is in a frame of its own, not the world's.
+// Whether all of a node's patches lie on the floor (`floor`) or all on the slope. Each face is split
+// as far as its own edges need, the floor's first: the patch mesh is in a frame of its own, not the
+// world's.
 bool all_on(const PatchMesh& mesh, const ClusterTree& tree, const ClusterNode& n, bool floor) {
-  int half = int(mesh.patches.size()) / 2;
+  int floor_patches = 1 << (2 * mesh.objects[0].face_levels[0]);
   for (int i = n.begin; i < n.end; ++i)
-    if ((tree.order[i] < half) != floor) return false;
+    if ((tree.order[i] < floor_patches) != floor) return false;
   return true;
 }
 

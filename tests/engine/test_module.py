@@ -302,15 +302,17 @@ def mixed_faces(material, light):
 def test_a_scene_past_the_patch_limit_is_refused_before_it_is_refined(refine, level):
     """The limit is checked on a count worked out from the faces; it must be the refiner's own count,
     exactly: faces at level 0 (a triangle as one quad), else n * 4^(level - 1) per n-gon, a quad 4^level.
-    The pentagon needs a level to become quads. The lamp's one quad always stays one patch."""
+    The pentagon needs a level to become quads: a bilinear mesh's other faces need not take it (each
+    face is split as far as its own edges need), a Catmull-Clark mesh's take its level. The lamp's
+    one quad always stays one patch."""
     scene = engine.Scene()
     grey, light = scene.add_material((0.5, 0.5, 0.5)), scene.add_material((0.5, 0.5, 0.5), (1, 1, 1))
     faces, lamp = mixed_faces(grey, light)
     patch = 1.2 / 2 ** level if refine == "bilinear" else 0.0   # the longest edge is 1.166 m
     faces.add_to(scene, refine=refine, level=level, patch_size=patch, name="Faces")
     lamp.add_to(scene, name="Lamp", patch_size=10.0)
-    levels = max(level, 1)
-    expected = 1 + sum(n * 4 ** (levels - 1) for n in (3, 4, 5))
+    levels = {n: max(level, 1 if n == 5 or refine != "bilinear" else 0) for n in (3, 4, 5)}
+    expected = 1 + sum(n * 4 ** (levels[n] - 1) if levels[n] else 1 for n in (3, 4, 5))
     settings = engine.Settings.preset("draft")
     settings.max_patches = expected
     solver = engine.Solver(scene, settings)
@@ -318,6 +320,47 @@ def test_a_scene_past_the_patch_limit_is_refused_before_it_is_refined(refine, le
     settings.max_patches = expected - 1
     with pytest.raises(ValueError, match=f"refine to {expected} patches.*object 'Faces' alone makes {expected - 1}"):
         engine.Solver(scene, settings)
+
+
+def floor_tile_and_box(scene, material, light, joined):
+    """A 4 m floor of three welded quads (a 4 x 3.6 field; a 3.6 x 0.4 strip and a 0.4 tile sharing a
+    0.4 m edge) and a 0.4 m box on it, as one mesh or as four objects; an emitting quad above."""
+    parts = [Mesh() for _ in range(4)]
+    parts[0].add_face([(-2, -2, 0), (2, -2, 0), (2, 1.6, 0), (-2, 1.6, 0)], material)
+    parts[1].add_face([(-1.6, 1.6, 0), (2, 1.6, 0), (2, 2, 0), (-1.6, 2, 0)], material)
+    parts[2].add_face([(-2, 1.6, 0), (-1.6, 1.6, 0), (-1.6, 2, 0), (-2, 2, 0)], material)
+    parts[3].add_box((0.5, 0.3, 0.2), (0.4, 0.4, 0.4), material, angle=0.4)
+    del parts[3].faces[0], parts[3].materials[0]  # standing open on the floor
+    if joined:
+        one = Mesh()
+        for part in parts:
+            for face, m in zip(part.faces, part.materials):
+                one.add_face([part.positions[i] for i in face], m)
+        parts = [one.weld()]
+    ids = [part.add_to(scene, refine="bilinear", patch_size=0.25) for part in parts]
+    lamp = Mesh()
+    lamp.add_face([(-0.5, -0.5, 2), (-0.5, 0.5, 2), (0.5, 0.5, 2), (0.5, -0.5, 2)], light)
+    lamp.add_to(scene, patch_size=10.0)
+    return ids
+
+
+def test_each_face_of_a_mesh_is_split_as_far_as_its_own_edges_need():
+    """A floor with a box joined to it is split as the two would be apart: the box's faces by their
+    0.4 m edges (4 patches each), not the floor's 4 m (256), and the tile beside the strip likewise,
+    meeting the strip's 17 points on their common edge with its 3 (T-junctions). The light agrees
+    with the objects solved apart, where such junctions have always been, to the sampling's noise."""
+    solved = {}
+    for joined in (False, True):
+        scene = engine.Scene()
+        grey, light = scene.add_material((0.6, 0.6, 0.6)), scene.add_material((0.5, 0.5, 0.5), (5, 5, 5))
+        ids = floor_tile_and_box(scene, grey, light, joined)
+        solver = engine.Solver(scene, engine.Settings.preset("default"))
+        solver.solve()
+        solved[joined] = (solver.stats, np.concatenate([solver.corner_radiance(i) for i in ids]))
+    (apart, alone), (together, joint) = solved[False], solved[True]
+    assert together["patches"] == apart["patches"] == 256 + 256 + 4 + 5 * 4 + 1
+    assert np.all(np.isfinite(joint)) and joint.min() > 0
+    assert np.sqrt(np.mean((joint - alone) ** 2)) / alone.mean() < 0.005
 
 
 def test_an_addition_past_the_patch_limit_is_refused_whole():

@@ -28,8 +28,7 @@ struct Settings {
   bool exact_near_direct = true;
   long max_shots = 2000000;  // a guard: rho near 1 must end, the residual says how far it got
   // A guard: a scene that would refine to more patches is refused with a message. A solve holds
-  // about 2.3 KB a patch (524k patches: 1.2 GB), and a mesh is refined uniformly to its longest
-  // edge: one long edge in a mesh of 100k small faces would make 400M patches at 1/64.
+  // about 2.3 KB a patch (524k patches: 1.2 GB); a patch size far below the faces' makes many.
   long max_patches = 2000000;
   // Memory for the dB cache (db_cache.h), in MB: what the scene without a moving object does to the
   // rays its moves change, so that a move back traces them no more. Full, it starts over, and rays
