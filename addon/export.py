@@ -408,11 +408,17 @@ def _corner_values(me, loops, sizes, face_materials, materials, images, label, w
         return None if layer is None else by_layer[layer.name]
 
     def values(source, at, material):
-        """(n, 3) of `source` at the corners `at` (or (3,) where it does not vary)."""
+        """(n, 3) of `source` at the corners `at`, or (3,) where it does not vary; (n,) or a number
+        for a GrayRef or a number."""
         if isinstance(source, colour_texture.MixRef):
-            return colour_texture.blended(source, values(source.a, at, material), values(source.b, at, material))
+            return colour_texture.blended(source, values(source.a, at, material), values(source.b, at, material),
+                                          values(source.fac, at, material))
         if isinstance(source, colour_texture.AdjustRef):
             return colour_texture.adjusted(source, values(source.colour, at, material))
+        if isinstance(source, colour_texture.GrayRef):
+            return colour_texture.gray(values(source.colour, at, material))
+        if isinstance(source, colour_texture.RampRef):
+            return colour_texture.ramped(source, values(source.fac, at, material))
         if isinstance(source, colour_texture.AttributeRef):
             colours = colour_texture.attribute_colours(source, me, loops, label, warnings)
             return colours[at] if colours is not None else colour_texture.mean_of(source, images)

@@ -4,7 +4,9 @@ texture, sampled at their UVs as Cycles samples it (texel centres at (i + 0.5) /
 Closest, the node's extension; an 8-bit sRGB image interpolated as stored and then made linear, as
 Cycles keeps such images compressed), the UVs from a UV Map node, a Texture Coordinate node's UV or
 the default map, through a Mapping node if there is one; Mix and colour-correction nodes of those
-and plain colours. And `Images`, what exports read from images (world.py reads environments).
+and plain colours, a Color Ramp on one of them, and a Mix's factor taken from one (as Cycles takes a
+colour for a number: its luminance). And `Images`, what exports read from images (world.py reads
+environments).
 
 Cycles reads the texture wherever it shades; the engine gets it at the mesh's face corners and
 interpolates it across each face, as the issue asks ("sampled per vertex"): detail finer than the
@@ -15,9 +17,9 @@ import numpy as np
 
 from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
 
-__all__ = ["TextureRef", "AttributeRef", "MixRef", "AdjustRef", "Images", "colour_source", "image_texture", "corner_colours",
-           "attribute_colours", "blended", "adjusted", "leaves", "varies", "mean_of", "mean_colour", "mapping_of",
-           "encoded_srgb", "srgb_to_linear"]
+__all__ = ["TextureRef", "AttributeRef", "MixRef", "AdjustRef", "RampRef", "GrayRef", "Images", "colour_source",
+           "image_texture", "corner_colours", "attribute_colours", "blended", "adjusted", "ramped", "gray", "leaves",
+           "varies", "mean_of", "mean_colour", "mapping_of", "encoded_srgb", "srgb_to_linear"]
 
 
 @dataclass
@@ -37,15 +39,40 @@ class AttributeRef:
 
 
 @dataclass
+class GrayRef:
+    """A colour source where a number is asked for: its luminance, as Cycles converts a colour
+    socket linked into a number one (linear_rgb_to_gray)."""
+    colour: object
+
+
+# Rec. 709 luminance: the luma of Blender's default OpenColorIO configuration, which Cycles reads.
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+@dataclass
 class MixRef:
     """A Mix node's colour (or a legacy MixRGB's): `blend` of a and b by `fac`, each side a (3,)
-    colour or a reference that varies over the mesh."""
+    colour or a reference that varies over the mesh; `fac` a number or a GrayRef."""
     blend: str
-    fac: float
+    fac: object
     a: object
     b: object
     clamp: bool                   # the result to [0, 1]
     factor: np.ndarray            # as TextureRef.factor
+    clamp_factor: bool = True     # fac to [0, 1] (a MixRGB's always; a Mix node's as it says)
+
+
+@dataclass
+class RampRef:
+    """A Color Ramp's colour: the table Cycles bakes from the ramp, looked up at `fac`, a number or
+    a GrayRef."""
+    table: np.ndarray             # (RAMP_TABLE_SIZE, 3): the ramp at i / (size - 1)
+    interpolate: bool             # between the table's entries (the ramp is not Constant)
+    fac: object
+    factor: np.ndarray            # as TextureRef.factor
+
+
+RAMP_TABLE_SIZE = 256             # Cycles' (svm_ramp)
 
 
 # Cycles' svm_mix, on colours (K, 3) or (3,); t the factor.
@@ -84,15 +111,18 @@ def colour_source(socket, warnings, depth=0):
     if depth > 16:
         return None
     return image_texture(socket, warnings) or colour_attribute(socket, warnings) or \
-        colour_mix(socket, warnings, depth) or colour_adjust(socket, warnings, depth)
+        colour_mix(socket, warnings, depth) or colour_adjust(socket, warnings, depth) or \
+        colour_ramp(socket, warnings, depth)
 
 
 def leaves(source):
     """The TextureRefs and AttributeRefs a source reads."""
     if isinstance(source, MixRef):
-        return leaves(source.a) + leaves(source.b)
-    if isinstance(source, AdjustRef):
+        return leaves(source.fac) + leaves(source.a) + leaves(source.b)
+    if isinstance(source, (AdjustRef, GrayRef)):
         return leaves(source.colour)
+    if isinstance(source, RampRef):
+        return leaves(source.fac)
     return [source] if isinstance(source, (TextureRef, AttributeRef)) else []
 
 
@@ -115,14 +145,35 @@ def colour_mix(socket, warnings, depth=0):
     if node.blend_type not in BLENDS:
         warnings.append(f"{node.name}: a {node.blend_type.title()} mix is not followed; its first colour is used")
         return None
-    if fac.is_linked:
-        warnings.append(f"{node.name}: its factor is linked; its unlinked value is used")
+    return MixRef(node.blend_type, _input_number(node, fac, warnings, depth), _input_colour(node, a, warnings, depth),
+                  _input_colour(node, b, warnings, depth), clamp, np.ones(3), node.type == 'MIX_RGB' or node.clamp_factor)
 
-    t = float(fac.default_value)
-    if node.type == 'MIX_RGB' or node.clamp_factor:
-        t = min(max(t, 0.0), 1.0)
-    return MixRef(node.blend_type, t, _input_colour(node, a, warnings, depth), _input_colour(node, b, warnings, depth),
-                  clamp, np.ones(3))
+
+def colour_ramp(socket, warnings, depth=0):
+    """RampRef for a Color Ramp's colour linked straight into `socket`, else None."""
+    if socket is None or not socket.is_linked:
+        return None
+    link = socket.links[0]
+    node = link.from_node
+    if node.type != 'VALTORGB' or link.from_socket.identifier != 'Color':
+        return None
+    ramp = node.color_ramp
+    table = np.array([ramp.evaluate(i / (RAMP_TABLE_SIZE - 1))[:3] for i in range(RAMP_TABLE_SIZE)], np.float64)
+    return RampRef(table, ramp.interpolation != 'CONSTANT', _input_number(node, node.inputs["Fac"], warnings, depth),
+                   np.ones(3))
+
+
+def _input_number(node, socket, warnings, depth):
+    """What a node's number input holds: the luminance of a colour source linked into it (GrayRef),
+    or its unlinked value."""
+    if not socket.is_linked:
+        return float(socket.default_value)
+    source = colour_source(socket, warnings, depth + 1) if socket.links[0].from_socket.type == 'RGBA' else None
+    if source is None:
+        warnings.append(f"{node.name}.{socket.name} is linked to a node or output not followed; its unlinked value "
+                        "is used")
+        return float(socket.default_value)
+    return GrayRef(source)
 
 
 def _input_colour(node, socket, warnings, depth):
@@ -195,10 +246,31 @@ def adjusted(ref, colour):
     return out * ref.factor
 
 
-def blended(ref, a, b):
-    """ref's colour from its sides' values a and b (colours (K, 3) or (3,)), times ref.factor."""
-    out = BLENDS[ref.blend](a, b, ref.fac)
+def blended(ref, a, b, t):
+    """ref's colour from its sides' values a and b (colours (K, 3) or (3,)) and its factor's t (a
+    number, or (K,)), times ref.factor."""
+    t = np.asarray(t, np.float64)
+    if ref.clamp_factor:
+        t = np.clip(t, 0.0, 1.0)
+    out = BLENDS[ref.blend](a, b, t[..., None] if t.ndim else t)
     return (np.clip(out, 0.0, 1.0) if ref.clamp else out) * ref.factor
+
+
+def gray(colour):
+    """Luminance, (K,) or a number, of colours (K, 3) or (3,)."""
+    return np.asarray(colour, np.float64) @ LUMINANCE
+
+
+def ramped(ref, fac):
+    """ref's colour at fac (a number, or (K,)), times ref.factor: Cycles' rgb_ramp_lookup, held at
+    the ramp's ends."""
+    f = np.clip(np.nan_to_num(np.asarray(fac, np.float64)), 0.0, 1.0) * (RAMP_TABLE_SIZE - 1)
+    i = np.minimum(f.astype(np.int64), RAMP_TABLE_SIZE - 1)
+    t = (f - i)[..., None]
+    out = ref.table[i]
+    if ref.interpolate:
+        out = np.where(t > 0, (1 - t) * out + t * ref.table[np.minimum(i + 1, RAMP_TABLE_SIZE - 1)], out)
+    return out * ref.factor
 
 
 def colour_attribute(socket, warnings):
@@ -384,12 +456,16 @@ def mean_of(source, images):
     """(3,) the colour a source stands for where it cannot be read at the corners: an image's mean,
     black for an attribute (as Cycles takes a mesh without it), a Mix or adjustment of those; times
     its factor."""
-    if isinstance(source, np.ndarray):
+    if isinstance(source, (np.ndarray, float)):
         return source
     if isinstance(source, MixRef):
-        return blended(source, mean_of(source.a, images), mean_of(source.b, images))
+        return blended(source, mean_of(source.a, images), mean_of(source.b, images), mean_of(source.fac, images))
     if isinstance(source, AdjustRef):
         return adjusted(source, mean_of(source.colour, images))
+    if isinstance(source, GrayRef):
+        return float(gray(mean_of(source.colour, images)))
+    if isinstance(source, RampRef):
+        return ramped(source, mean_of(source.fac, images))
     base = mean_colour(source.image, images) if isinstance(source, TextureRef) else np.zeros(3)
     return base * source.factor
 

@@ -244,6 +244,70 @@ def test_mixed_colours_reach_the_corners_as_cycles_bakes_them(addon, kind, blend
     corners_as_cycles_bakes_them(addon, ob, f"{kind[10:]} {blend}")
 
 
+RAMPS = [('LINEAR', 'RGB'), ('CONSTANT', 'RGB'), ('EASE', 'RGB'), ('B_SPLINE', 'HSV')]
+
+
+@pytest.mark.parametrize("interpolation, mode", RAMPS, ids=[f"{i}-{m}" for i, m in RAMPS])
+def test_a_colour_ramp_on_the_texture_reaches_the_corners_as_cycles_bakes_it(addon, interpolation, mode):
+    """A Color Ramp of three colours whose factor is the texture's colour (its luminance, as Cycles
+    takes a colour for a number): each corner takes the ramp there, as Cycles' table of it gives."""
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    tree = ob.active_material.node_tree
+    node = tree.nodes.new("ShaderNodeValToRGB")
+    ramp = node.color_ramp
+    ramp.interpolation, ramp.color_mode = interpolation, mode
+    ramp.elements[0].position, ramp.elements[0].color = 0.1, (0.8, 0.1, 0.1, 1.0)
+    ramp.elements[1].position, ramp.elements[1].color = 0.7, (0.1, 0.2, 0.8, 1.0)
+    ramp.elements.new(0.35).color = (0.2, 0.7, 0.3, 1.0)
+    tree.links.new(tree.nodes["Image Texture"].outputs["Color"], node.inputs["Fac"])
+    tree.links.new(node.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
+    corners_as_cycles_bakes_them(addon, ob, f"ramp {interpolation} {mode}")
+
+
+@pytest.mark.parametrize("kind", ["ShaderNodeMix", "ShaderNodeMixRGB"])
+def test_a_mix_factor_from_a_texture_or_attribute_reaches_the_corners_as_cycles_bakes_it(addon, kind):
+    """A Mix of the texture and a plain colour whose factor is a colour attribute's luminance (a Mix
+    node), or the texture's own (a MixRGB), pushed past 0 and 1 by a Bright/Contrast and so clamped."""
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    tree = ob.active_material.node_tree
+    image = tree.nodes["Image Texture"]
+    mix = tree.nodes.new(kind)
+    if kind == "ShaderNodeMix":
+        mix.data_type = 'RGBA'
+        fac, a, b = (next(s for s in mix.inputs if s.identifier == i) for i in ("Factor_Float", "A_Color", "B_Color"))
+        out = next(s for s in mix.outputs if s.identifier == "Result_Color")
+        paint = ob.data.color_attributes.new("Paint", 'FLOAT_COLOR', 'POINT')
+        paint.data.foreach_set("color", np.random.default_rng(3).uniform(0.0, 1.0, len(paint.data) * 4)
+                               .astype(np.float32))
+        source = tree.nodes.new("ShaderNodeVertexColor")
+        source.layer_name = "Paint"
+        tree.links.new(source.outputs["Color"], fac)
+    else:
+        fac, a, b, out = mix.inputs["Fac"], mix.inputs["Color1"], mix.inputs["Color2"], mix.outputs[0]
+        lift = tree.nodes.new("ShaderNodeBrightContrast")
+        lift.inputs["Bright"].default_value, lift.inputs["Contrast"].default_value = 0.5, 1.5
+        tree.links.new(image.outputs["Color"], lift.inputs["Color"])
+        tree.links.new(lift.outputs["Color"], fac)
+    fac.default_value = 0.0   # what a factor not followed would give
+    tree.links.new(image.outputs["Color"], a)
+    b.default_value = (0.9, 0.6, 0.1, 1.0)
+    tree.links.new(out, tree.nodes["Diffuse BSDF"].inputs["Color"])
+    corners_as_cycles_bakes_them(addon, ob, f"{kind[10:]} factor")
+
+
+def test_a_number_from_an_output_not_followed_is_reported(addon):
+    """The texture's alpha into a Color Ramp's factor: the factor's unlinked value, and a warning."""
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    tree = ob.active_material.node_tree
+    node = tree.nodes.new("ShaderNodeValToRGB")
+    node.inputs["Fac"].default_value = 0.25
+    tree.links.new(tree.nodes["Image Texture"].outputs["Alpha"], node.inputs["Fac"])
+    tree.links.new(node.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
+    sx = addon.export.export_scene()
+    assert any("Fac is linked to a node or output not followed" in w for w in sx.warnings), sx.warnings
+    np.testing.assert_allclose(sx.materials[0].reflectance, node.color_ramp.evaluate(0.25)[:3], atol=0.01)
+
+
 ADJUSTS = [("ShaderNodeInvert", {"Fac": 0.7}), ("ShaderNodeGamma", {"Gamma": 2.2}),
            ("ShaderNodeGamma", {"Gamma": 0.5}), ("ShaderNodeBrightContrast", {"Bright": 0.05, "Contrast": -0.2}),
            ("ShaderNodeHueSaturation", {"Hue": 0.3, "Saturation": 1.4, "Value": 0.9, "Fac": 0.8})]
