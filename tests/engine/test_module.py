@@ -435,6 +435,31 @@ def test_a_solve_that_diverges_stops_and_says_so():
     assert np.isfinite(solver.corner_radiance(crumpled)).all()
 
 
+def test_boxes_standing_in_each_other_name_them_when_the_light_runs_away():
+    """Two boxes standing in each other on a floor: inside them the floor and both bottoms lie in one
+    plane facing up, and a point there sees all three (Cycles' rays stop at the first). Light that
+    leaks in where a patch runs through the other box's wall grows as it goes round; at a tight
+    threshold the solve runs away. It stops, and says which objects hold the light."""
+    scene = engine.Scene()
+    grey = scene.add_material((0.8, 0.8, 0.8))
+    floor = Mesh()
+    floor.add_face([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], grey)
+    floor.add_to(scene, name="Floor")
+    boxes = []
+    for i, centre in enumerate([(0.0, 0.0, 0.15), (0.08, 0.004, 0.15)]):
+        box = Mesh()
+        box.add_box(centre, (0.3, 0.3, 0.3), grey)
+        boxes.append(box.add_to(scene, name=f"Box{i}"))
+    scene.add_sun_light((0.3, 0.2, -1.0), (3, 3, 3))
+    settings = engine.Settings.preset("draft")
+    settings.threshold = 1e-6
+    solver = engine.Solver(scene, settings)
+    stats = solver.solve()
+    assert stats["diverged"] and not stats["converged"]
+    assert "most of it in 'Box1', 'Box0'" in stats["warnings"][-1] and "overlap" in stats["warnings"][-1]
+    assert all(np.isfinite(solver.corner_radiance(b)).all() for b in boxes)
+
+
 def test_catmull_clark_refines_onto_the_limit_surface():
     scene = engine.Scene()
     m = scene.add_material((0.5, 0.5, 0.5))
