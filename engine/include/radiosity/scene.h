@@ -21,7 +21,7 @@ struct Material {
 
 enum class Refinement {
   None,          // faces as given: quads stay, triangles become degenerate quads, n-gons are split
-  Bilinear,      // uniform bilinear splitting until patches are about `patch_size` across
+  Bilinear,      // bilinear splitting, each face until its patches are about `patch_size` across
   CatmullClark,  // `level` Catmull-Clark steps, vertices and normals on the limit surface
 };
 
