@@ -122,10 +122,14 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
       if (patch.area > 0) centre_sum += patch.centre, ++count;
     }
     if (count == 0) continue;
-    // Along the tangent plane only: on a curved surface the patch centres lie below it, and a
-    // point moved towards them would sit inside the tessellated surface, shadowed by itself.
+    // Where the surface is convex the patch centres lie below the tangent plane: a point moved
+    // towards them would sit inside the tessellated surface, shadowed by itself, so it moves
+    // along the plane. Where it is concave, moved along the plane a point whose patches lie to
+    // one side of it (a T-junction; wide faces beside narrow ones) went behind their facets and
+    // gathered nothing: it moves towards them, into the open.
     dvec3 towards = centre_sum / double(count) - rp.position;
-    rp.position += kInwardNudge * (towards - glm::dot(towards, rp.normal) * rp.normal);
+    double rise = glm::dot(towards, rp.normal);
+    rp.position += kInwardNudge * (rise > 0 ? towards : towards - rise * rp.normal);
   }
 }
 

@@ -363,6 +363,47 @@ def test_each_face_of_a_mesh_is_split_as_far_as_its_own_edges_need():
     assert np.sqrt(np.mean((joint - alone) ** 2)) / alone.mean() < 0.005
 
 
+def uneven_sphere():
+    """A unit sphere facing in, its 24 meridians crossed by 4 wide rings below the equator and 16
+    narrow ones above: faces split 4x apart, meeting along rings in T-junctions."""
+    lat = np.concatenate([np.linspace(0.15, 1.2, 4), np.linspace(1.3, 2.9, 16)])
+    lon = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    pos = [(0, 0, -1)] + [(np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), -np.cos(t)) for t in lat for p in lon]
+    pos.append((0, 0, 1))
+    n, top, last = len(lon), len(pos) - 1, 1 + (len(lat) - 1) * len(lon)
+    faces = [[0, 1 + j, 1 + (j + 1) % n] for j in range(n)]
+    for i in range(len(lat) - 1):
+        for j in range(n):
+            a, b = 1 + i * n + j, 1 + i * n + (j + 1) % n
+            faces.append([a, a + n, b + n, b])
+    faces += [[last + j, top, last + (j + 1) % n] for j in range(n)]
+    return np.array(pos, float), faces
+
+
+@pytest.mark.parametrize("smooth, bound", [(False, 0.001), (True, 0.01)])
+def test_faces_split_unevenly_keep_a_closed_emitter_uniform(smooth, bound):
+    """Case 11 on a sphere whose faces take different levels: inside, uniform emission E with
+    reflectance rho gives E / (1 - rho) everywhere, T-junctions or not. Smooth-shaded patches of a
+    curved surface come out a little dark (README, known limits)."""
+    pos, faces = uneven_sphere()
+    scene = engine.Scene()
+    m = scene.add_material((0.5, 0.5, 0.5), (1, 1, 1))
+    sphere = scene.add_mesh(pos, np.array([len(f) for f in faces], np.int32), np.array(sum(faces, []), np.int32),
+                            np.full(len(faces), m, np.int32), refine="bilinear", patch_size=0.2,
+                            smooth=np.full(len(faces), smooth))
+    settings = engine.Settings.preset("default")
+    settings.threshold = 1e-4
+    solver = engine.Solver(scene, settings)
+    solver.solve()
+    longest = [max(np.linalg.norm(pos[f[i]] - pos[f[i - 1]]) for i in range(len(f))) for f in faces]
+    levels = [max(0, int(np.ceil(np.log2(e / 0.2)))) for e in longest]
+    assert set(levels) == {0, 1}  # the top rings alone, the rest split in four
+    assert solver.stats["patches"] == sum(4 ** l if len(f) == 4 else 3 * 4 ** (l - 1) if l else 1
+                                          for f, l in zip(faces, levels))
+    radiance = solver.corner_radiance(sphere)
+    assert np.abs(radiance / 2.0 - 1).max() < bound
+
+
 def test_an_addition_past_the_patch_limit_is_refused_whole():
     scene = engine.Scene()
     grey, light = scene.add_material((0.5, 0.5, 0.5)), scene.add_material((0.5, 0.5, 0.5), (1, 1, 1))
@@ -592,7 +633,8 @@ def test_inside_a_curved_furnace_as_cycles_bakes_it(level, bound):
     # against Cycles' bake of the same cube, curved_furnace.json, at levels 1-3). Taking it gave
     # -9.5 / -3.2 / -0.9%: inside a face Cycles' shading normal tilts less from the facet than at
     # the corners, so the face sends on more light than its corners show. Sending that on (the
-    # patch's interior share over the corner's): -1.8 / -0.50 / -0.17%.
+    # patch's interior share over the corner's): -1.8 / -0.50 / -0.17%. Points set off in front of
+    # a concave surface rather than along its tangent plane: -0.94 / -0.15 / -0.10%.
     with open(os.path.join(os.path.dirname(__file__), "..", "cycles_reference", "curved_furnace.json")) as f:
         cycles = json.load(f)
     ours = curved_furnace(cycles["rho"], level).mean(1) * (1 - cycles["rho"])
