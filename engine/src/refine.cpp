@@ -282,10 +282,11 @@ RefinedMesh split_faces(const MeshDesc& mesh, const std::vector<int>& levels) {
   auto split = [&](const Piece& piece, int steps, int face) {
     std::vector<int> grid((steps + 1) * (steps + 1));
     auto along = [&](const Side& s, int i) { return point_on(s.a, s.b, s.from + (s.to - s.from) * i / steps); };
-    dvec3 corner[4], corner_normal[4];
+    dvec3 corner[4], corner_normal[4], rho[4], emission[4];
     for (int c = 0; c < 4; ++c) {
       corner[c] = out.positions[piece.corner[c]];
       corner_normal[c] = normals.empty() ? dvec3(0.0) : normals[piece.corner[c]];
+      rho[c] = piece.colour[c].reflectance, emission[c] = piece.colour[c].emission;
     }
     for (int j = 0; j <= steps; ++j)
       for (int i = 0; i <= steps; ++i) {
@@ -304,19 +305,16 @@ RefinedMesh split_faces(const MeshDesc& mesh, const std::vector<int>& levels) {
       for (int i = 0; i < steps; ++i) {
         const int g[4][2] = {{i, j}, {i + 1, j}, {i + 1, j + 1}, {i, j + 1}};
         std::array<int, 4> quad;
-        std::array<dvec3, 4> rho, emission;
+        std::array<dvec3, 4> quad_rho, quad_emission;
         for (int c = 0; c < 4; ++c) {
           quad[c] = grid[g[c][1] * (steps + 1) + g[c][0]];
           double u = double(g[c][0]) / steps, w = double(g[c][1]) / steps;
-          double weight[4] = {(1 - u) * (1 - w), u * (1 - w), u * w, (1 - u) * w};
-          CornerColours at;
-          for (int k = 0; k < 4; ++k) at.AddWithWeight(piece.colour[k], weight[k]);
-          rho[c] = at.reflectance, emission[c] = at.emission;
+          quad_rho[c] = bilinear(rho, u, w), quad_emission[c] = bilinear(emission, u, w);
         }
         out.quads.push_back(quad);
         out.quad_face.push_back(face);
-        if (with_rho) out.corner_reflectance.push_back(rho);
-        if (with_emission) out.corner_emission.push_back(emission);
+        if (with_rho) out.corner_reflectance.push_back(quad_rho);
+        if (with_emission) out.corner_emission.push_back(quad_emission);
       }
   };
 
