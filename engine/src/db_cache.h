@@ -7,8 +7,9 @@
 // on where the object is, nor on any light. Kept, it serves every later move of the same object
 // that changes the same ray: a move back changes the rays the move there did (its exit zone that
 // move's enter zone, and the reverse), and a few more: a cell near a receiver asks, with the object
-// where it is, which corners of its patch light the part the receiver sees (shot.cpp: exact_cell). The next step of a drag asks about few of them: rays
-// that the place it leaves alone blocked, or alone did not. The light a ray carries comes from the
+// where it is, which corners of its patch light the part the receiver sees (shot.cpp: exact_cell).
+// The next step of a drag asks about few of them: rays that the place it leaves alone blocked, or
+// alone did not. The light a ray carries comes from the
 // shooters' current totals and is worked out anew, so nothing kept goes stale as shooters shoot
 // on; visibility is all there is to keep. Sample positions are deterministic, so a static source and receiver give the same
 // ray, bit for bit, each update: the key is its exact bits, compared whole, not a hash of them.

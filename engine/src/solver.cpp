@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 
 namespace radiosity {
@@ -236,14 +237,13 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, d
 // aim at), where Cycles' rays stop at the first; light that leaks in where a patch runs through the
 // other box's wall then grows as it goes round (4 m floor, two 0.3 m boxes 8 cm apart, a 1e-6
 // threshold; and 400 random boxes on a 40 m floor at the default threshold, one pair of them).
-std::string Solver::Impl::holders_of(const std::vector<double>& power) const {
+std::string Solver::Impl::holders_of() const {
   std::vector<double> held(scene.meshes.size(), 0.0);
   for (size_t p = 0; p < mesh.patches.size(); ++p) held[mesh.patches[p].object] += patch_power[p];
   std::vector<int> order(held.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = int(i);
+  std::iota(order.begin(), order.end(), 0);
   std::sort(order.begin(), order.end(), [&](int a, int b) { return held[a] > held[b]; });
-  double total = 0.0;
-  for (double p : power) total += p;
+  double total = std::accumulate(held.begin(), held.end(), 0.0);
   std::string names;
   double named = 0.0;
   for (size_t i = 0; i < order.size() && i < 4 && named < 0.9 * total; ++i) {
@@ -280,7 +280,7 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     if (!(stats.residual <= limit)) {
       stats.diverged = true;
       stats.warnings.push_back("the solve diverged (unshot light grew to " + std::to_string(stats.residual) +
-                               " times the light put in, most of it in " + holders_of(power) +
+                               " times the light put in, most of it in " + holders_of() +
                                "): objects that overlap others with faces in one plane (boxes that stand in each "
                                "other on a floor: a point inside sees the floor and both bottoms), or too small for "
                                "the scene's size to be ray traced apart (the ray offset is 1e-5 of its diagonal)");

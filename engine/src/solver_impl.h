@@ -131,7 +131,7 @@ struct Solver::Impl {
   // power: shooter_power() after the shot
   bool shoot(int s, std::vector<double>& power, Sampling sampling, double omega);
   void propagate(const ProgressCallback& progress, Sampling sampling);  // shoots until the residual is below threshold
-  std::string holders_of(const std::vector<double>& power) const;  // the objects holding most of the unshot light
+  std::string holders_of() const;  // the objects holding most of the unshot light
   const SolveStats& solve(const ProgressCallback& progress);
 
   // dynamic_update.cpp
