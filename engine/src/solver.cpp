@@ -281,9 +281,9 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
       stats.diverged = true;
       stats.warnings.push_back("the solve diverged (unshot light grew to " + std::to_string(stats.residual) +
                                " times the light put in, most of it in " + holders_of() +
-                               "): objects that overlap others with faces in one plane (boxes that stand in each "
-                               "other on a floor: a point inside sees the floor and both bottoms), or too small for "
-                               "the scene's size to be ray traced apart (the ray offset is 1e-5 of its diagonal)");
+                               "): faces that overlap others of the same object in one plane (doubled faces: a point "
+                               "in front of them sees both), or objects too small for the scene's size to be ray "
+                               "traced apart (the ray offset is 1e-5 of its diagonal)");
       break;
     }
     if (stats.shots - first_shot >= settings.max_shots) {

@@ -46,6 +46,7 @@ Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_o
   for (size_t o = 0; o < mesh.objects.size(); ++o)
     attach(mesh, o < dynamic_objects.size() && dynamic_objects[o], o >= visible.size() || visible[o]);
   rtcCommitScene(top_);
+  find_coincident(mesh);
 }
 
 void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
@@ -58,6 +59,8 @@ void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
   else
     o.geometry = rtcAttachGeometry(top_, quads);
   rtcReleaseGeometry(quads);
+  if (object_of_geometry_.size() <= o.geometry) object_of_geometry_.resize(o.geometry + 1, -1);
+  object_of_geometry_[o.geometry] = int(objects_.size() - 1);
   if (!shown) {
     o.visible[0] = o.visible[1] = false;
     rtcDisableGeometry(o.instance);
@@ -67,6 +70,7 @@ void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
 void Visibility::add_object(const PatchMesh& mesh) {
   attach(mesh, true, false);
   rtcCommitScene(top_);
+  under_.resize(mesh.patches.size(), 0);  // hidden: it lies on nothing, and nothing on it
 }
 
 Visibility::~Visibility() {
@@ -106,9 +110,21 @@ void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
     RTCGeometry quads = rtcGetGeometry(top_, o.geometry);
     rtcRetainGeometry(quads);
     rtcDetachGeometry(top_, o.geometry);
+    object_of_geometry_[o.geometry] = -1;
     make_instance(o, quads);
     rtcReleaseGeometry(quads);
+    if (object_of_geometry_.size() <= o.geometry) object_of_geometry_.resize(o.geometry + 1, -1);
+    object_of_geometry_[o.geometry] = object;
   }
+  // Patches that lay on it, or lie on it now, are near where it was or is.
+  auto bounds = [&](dvec3& lo, dvec3& hi) {
+    const ObjectPatches& obj = mesh.objects[object];
+    for (int v = obj.vertex_begin; v < obj.vertex_end; ++v)
+      lo = glm::min(lo, mesh.vertices[v]), hi = glm::max(hi, mesh.vertices[v]);
+  };
+  dvec3 lo(INFINITY), hi(-INFINITY);
+  bounds(lo, hi);
+  lo = glm::min(lo, o.lo), hi = glm::max(hi, o.hi);
   int next = 1 - o.now;
   if (o.own[next]) rtcReleaseScene(o.own[next]);
   o.own[next] = new_object_scene();
@@ -125,50 +141,110 @@ void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
     rtcDisableGeometry(o.instance);
   rtcCommitGeometry(o.instance);
   rtcCommitScene(top_);
-}
-
-void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigned count) const {
-  const Object& o = objects_.at(object);
-  int state = before_move ? 1 - o.now : o.now;
-  RTCScene scene = o.own[state];
-  if (!scene || !o.visible[state]) return;
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  rtcOccluded1M(scene, &context, rays, count, sizeof(RTCRay));
+  find_coincident(mesh, lo, hi);
+  o.lo = dvec3(INFINITY), o.hi = dvec3(-INFINITY);
+  bounds(o.lo, o.hi);
 }
 
 namespace {
 
-struct ExcludingContext {
+// What a trace's hits are filtered by: an object left out (occluded_without), and Coincident.
+struct FilterContext {
   RTCIntersectContext context;  // first: Embree hands the filter a pointer to it
-  unsigned excluded;            // instance geometry id in the top-level scene
+  const Visibility* vis = nullptr;
+  unsigned excluded = RTC_INVALID_GEOMETRY_ID;  // instance geometry id in the top-level scene
+  int only_object = -1;                         // the object traced alone (occluded_by)
+  const Coincident* coincident = nullptr;
 };
 
-void skip_excluded(const RTCFilterFunctionNArguments* args) {
-  unsigned excluded = reinterpret_cast<const ExcludingContext*>(args->context)->excluded;
-  for (unsigned i = 0; i < args->N; ++i)
-    if (args->valid[i] == -1 && RTCHitN_instID(args->hit, args->N, i, 0) == excluded) args->valid[i] = 0;
+void filter_hits(const RTCFilterFunctionNArguments* args) {
+  const FilterContext& f = *reinterpret_cast<const FilterContext*>(args->context);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    unsigned instance = RTCHitN_instID(args->hit, args->N, i, 0);
+    if (instance != RTC_INVALID_GEOMETRY_ID && instance == f.excluded) {
+      args->valid[i] = 0;
+      continue;
+    }
+    if (!f.coincident) continue;
+    unsigned id = RTCRayN_id(args->ray, args->N, i);
+    int target = f.coincident->target_object[id];
+    // The ray's tfar is the hit's distance here (instances are not transformed: the same units).
+    if (target < 0 || RTCRayN_tfar(args->ray, args->N, i) < f.coincident->zone_start[id]) continue;
+    int object = f.only_object >= 0 ? f.only_object
+                 : f.vis->object_of(instance != RTC_INVALID_GEOMETRY_ID ? instance : RTCHitN_geomID(args->hit, args->N, i));
+    if (object >= target) args->valid[i] = 0;
+  }
+}
+
+void trace(RTCScene scene, FilterContext& ctx, RTCRay* rays, unsigned count) {
+  rtcInitIntersectContext(&ctx.context);
+  if (ctx.excluded != RTC_INVALID_GEOMETRY_ID || ctx.coincident) ctx.context.filter = filter_hits;
+  rtcOccluded1M(scene, &ctx.context, rays, count, sizeof(RTCRay));
 }
 
 }  // namespace
 
-void Visibility::occluded_without(int object, RTCRay* rays, unsigned count) const {
-  ExcludingContext ctx;
-  rtcInitIntersectContext(&ctx.context);
-  ctx.context.filter = skip_excluded;
-  ctx.excluded = objects_.at(object).geometry;
-  rtcOccluded1M(top_, &ctx.context, rays, count, sizeof(RTCRay));
+void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigned count,
+                             const Coincident* coincident) const {
+  const Object& o = objects_.at(object);
+  int state = before_move ? 1 - o.now : o.now;
+  RTCScene scene = o.own[state];
+  if (!scene || !o.visible[state]) return;
+  FilterContext ctx;
+  ctx.vis = this, ctx.only_object = object, ctx.coincident = coincident;
+  trace(scene, ctx, rays, count);
 }
 
-void Visibility::occluded(RTCRay* rays, unsigned count) const {
+void Visibility::occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident) const {
+  FilterContext ctx;
+  ctx.vis = this, ctx.excluded = objects_.at(object).geometry, ctx.coincident = coincident;
+  trace(top_, ctx, rays, count);
+}
+
+void Visibility::occluded(RTCRay* rays, unsigned count, const Coincident* coincident) const {
   if (recording_) {
     std::lock_guard<std::mutex> lock(recording_->mutex);
     if (recording_->batches++ % recording_->stride == 0)
       recording_->batches_kept.emplace_back(rays, rays + count);
   }
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  rtcOccluded1M(top_, &context, rays, count, sizeof(RTCRay));
+  FilterContext ctx;
+  ctx.vis = this, ctx.coincident = coincident;
+  trace(top_, ctx, rays, count);
+}
+
+void Visibility::find_coincident(const PatchMesh& mesh, dvec3 lo, dvec3 hi) {
+  under_.resize(mesh.patches.size(), 0);
+  // Each patch is probed at 3 x 3 points by a short ray through its plane, against objects of
+  // lower index: four epsilon either way, as far as Coincident's zones reach.
+  constexpr int kProbes = 9;
+  double reach = 4 * epsilon_;
+  lo -= reach, hi += reach;
+  int count = int(mesh.patches.size());
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int q = 0; q < count; ++q) {
+    const Patch& patch = mesh.patches[q];
+    dvec3 corner[4];
+    for (int c = 0; c < 4; ++c) corner[c] = mesh.vertices[patch.vertex[c]];
+    dvec3 plo = glm::min(glm::min(corner[0], corner[1]), glm::min(corner[2], corner[3]));
+    dvec3 phi = glm::max(glm::max(corner[0], corner[1]), glm::max(corner[2], corner[3]));
+    if (glm::any(glm::lessThan(phi, lo)) || glm::any(glm::greaterThan(plo, hi))) continue;
+    under_[q] = 0;
+    if (patch.area == 0 || patch.object == 0) continue;
+    RTCRay rays[kProbes];
+    int target[kProbes];
+    float zone[kProbes];
+    for (int k = 0; k < kProbes; ++k) {
+      double u = (1 + 2 * (k % 3)) / 6.0, v = (1 + 2 * (k / 3)) / 6.0;
+      dvec3 y = bilinear(corner, u, v);
+      rays[k] = make_ray(y + reach * patch.normal, -2 * reach * patch.normal, 1.0f);
+      rays[k].id = unsigned(k);
+      target[k] = patch.object, zone[k] = 0.0f;
+    }
+    Coincident probe{target, zone};
+    occluded(rays, kProbes, &probe);
+    for (const RTCRay& r : rays) under_[q] = under_[q] || r.tfar < 0;
+  }
 }
 
 void Visibility::record(int stride) {
@@ -212,6 +288,20 @@ void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, c
   push(&sum(receiver, front), x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, share_[!front] * irradiance);
 }
 
+void OcclusionBatch::through(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& m, bool front,
+                             const dvec3& irradiance, double lift, int target_object) {
+  double eps = vis_.epsilon();
+  dvec3 origin, dir;
+  segment_ends(x, n, y, m, eps, lift, origin, dir);
+  if (glm::dot(dir, dir) <= 4 * eps * eps) return segment(receiver, origin, dir, front, irradiance);
+  // As far past y as an ordinary segment ends short of it; the zone starts where that one stops.
+  dvec3 short_end = origin + dir;
+  dvec3 past = 2.0 * y - short_end - origin;
+  double length = glm::length(past);
+  double zone = (glm::dot(dir, past) / length - eps) / length;
+  push(&sum(receiver, front), origin, past, kThrough, share_[!front] * irradiance, target_object, float(zone));
+}
+
 unsigned OcclusionBatch::keep_changed() {
   // A ray the object's sphere of one place does not reach, the object there cannot block: each ray
   // is traced against the places it passes near, not against both.
@@ -226,7 +316,7 @@ unsigned OcclusionBatch::keep_changed() {
       if (ray_crosses(dvec3(r.org_x, r.org_y, r.org_z), dvec3(r.dir_x, r.dir_y, r.dir_z), r.tfar, bounds))
         near[count] = r, which[count++] = i;
     }
-    vis_.occluded_by(changed_object_, place == 0, near, count);
+    vis_.occluded_by(changed_object_, place == 0, near, count, coincident());
     for (unsigned k = 0; k < count; ++k) blocked[place][which[k]] = near[k].tfar < 0;
     traced_ += count;
   }
@@ -269,16 +359,20 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
     for (int l = 0; l < 4; ++l) r[l].tfar = out[l];
   }
   for (; i < count_; ++i) shorten(rays_[i]);
+  unsigned pushed = count_;
   if (changed_object_ >= 0) {
     count_ = keep_changed();
     traced_ += trace_without();
   } else {
-    vis_.occluded(rays_, count_);
+    vis_.occluded(rays_, count_, coincident());
     traced_ += count_;
   }
   for (unsigned i = 0; i < count_; ++i)
     if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
   count_ = 0;
+  if (changed_object_ >= 0)  // keep_changed moved rays to other slots: each gets its slot's id back
+    for (unsigned k = 0; k < pushed; ++k) rays_[k].id = k;
+  if (coincident_) std::fill(target_, target_ + pushed, -1), coincident_ = false;
 }
 
 unsigned OcclusionBatch::trace_without() {
@@ -291,7 +385,7 @@ unsigned OcclusionBatch::trace_without() {
       case DbCache::blocked: rays_[i].tfar = -INFINITY; break;
       case DbCache::clear: break;
     }
-  vis_.occluded_without(changed_object_, missed, misses);
+  vis_.occluded_without(changed_object_, missed, misses, coincident());
   if (count_ > 0) db_->stage(rays_, where, missed, misses, count_ - misses);
   for (unsigned k = 0; k < misses; ++k) rays_[where[k]].tfar = missed[k].tfar;
   return misses;

@@ -5,10 +5,13 @@
 #include "bounds.h"
 #include "db_cache.h"
 #include "patch_mesh.h"
+#include "radiosity/form_factor.h"
 #include "radiosity/lanes.h"
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
+#include <iterator>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -45,6 +48,19 @@ RADIOSITY_LANES void segment_ends(const V& x, const V& n, const V& y, const V& m
   dir = end - origin;
 }
 
+// Rays that end on a surface another object's may lie on (a box's bottom on the floor, the tops of
+// two boxes standing in each other). Such a ray is traced on through its end's plane, and a hit
+// near its end blocks it only on an object of lower index than its target's: of coincident
+// surfaces one is seen, as a ray tracer's first hit sees one. Ending short of the plane, as other
+// rays do, saw all of them: a box's inside saw the floor and its own bottom, two boxes standing in
+// each other saw the floor three times and their tops twice, and reflected more than they took in
+// (the solve diverged). Per ray id: the target's object (-1: an ordinary ray) and the ray parameter
+// where its end's zone starts.
+struct Coincident {
+  const int* target_object;
+  const float* zone_start;
+};
+
 class Visibility {
  public:
   // Hidden objects are instances switched off: they block nothing until they appear.
@@ -53,8 +69,9 @@ class Visibility {
   Visibility(const Visibility&) = delete;
   Visibility& operator=(const Visibility&) = delete;
 
-  // Traces a stream of occlusion rays; an occluded ray comes back with tfar = -inf.
-  void occluded(RTCRay* rays, unsigned count) const;
+  // Traces a stream of occlusion rays; an occluded ray comes back with tfar = -inf. Rays to
+  // surfaces that may lie under another's carry their ids into `coincident`.
+  void occluded(RTCRay* rays, unsigned count, const Coincident* coincident = nullptr) const;
 
   // An object moved, deformed, appeared or vanished: its new geometry (from `mesh`) and visibility
   // replace the old ones, which are kept until the next move so an update can ask what the old one
@@ -64,9 +81,17 @@ class Visibility {
   void add_object(const PatchMesh& mesh);
   // Rays against one moved object alone, as it is now or as it was before its last move (a hidden
   // object blocks nothing).
-  void occluded_by(int object, bool before_move, RTCRay* rays, unsigned count) const;
+  void occluded_by(int object, bool before_move, RTCRay* rays, unsigned count,
+                   const Coincident* coincident = nullptr) const;
   // Rays against the whole scene except one moved object.
-  void occluded_without(int object, RTCRay* rays, unsigned count) const;
+  void occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident = nullptr) const;
+
+  // Whether part of a patch may lie on a surface of an object of lower index (within a few
+  // epsilon, facing either way): rays to it must then be traced as Coincident says. Kept for the
+  // geometry as it is: worked out for every patch, and after a move for those near the object.
+  bool may_lie_under(int patch) const { return under_[patch] != 0; }
+  // The object whose quads are geometry `geometry` of the top-level scene (or its instance).
+  int object_of(unsigned geometry) const { return object_of_geometry_[geometry]; }
 
   // Whether points a and b of surfaces with normals na, nb see each other on the side the normals
   // point to. The ends are lifted off their surfaces by more than the surface can bulge between
@@ -88,14 +113,19 @@ class Visibility {
     RTCScene own[2] = {nullptr, nullptr};          // instanced geometry: now and before the last move
     bool visible[2] = {true, true};
     int now = 0;
+    dvec3 lo{INFINITY}, hi{-INFINITY};  // bounds where its last move left it (none before)
   };
   void attach(const PatchMesh& mesh, bool dynamic, bool shown);  // the mesh's next object
   RTCScene new_object_scene();
   void make_instance(Object& o, RTCGeometry quads);
+  // may_lie_under for the patches whose bounds meet [lo, hi] (all, by default).
+  void find_coincident(const PatchMesh& mesh, dvec3 lo = dvec3(-INFINITY), dvec3 hi = dvec3(INFINITY));
 
   RTCDevice device_ = nullptr;
   RTCScene top_ = nullptr;
   std::vector<Object> objects_;
+  std::vector<int> object_of_geometry_;
+  std::vector<char> under_;  // per patch: may_lie_under
   double epsilon_;
   struct Recording {
     std::mutex mutex;
@@ -120,8 +150,10 @@ class OcclusionBatch {
   // (pieces of a patch) gather under indices past the last one, into arrays of their own.
   OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int first_receiver = 0)
       : vis_(vis), front_(front), back_(back), first_(first_receiver) {
-    // Tracing changes only tfar: the fields every ray shares are written once, not once a ray.
-    for (RTCRay& r : rays_) r = make_ray(dvec3(0.0), dvec3(0.0), 0.0f);
+    // Tracing changes only tfar: the fields every ray shares are written once, not once a ray. A
+    // ray's id is its slot, where its Coincident data is.
+    for (unsigned i = 0; i < kCapacity; ++i) rays_[i] = make_ray(dvec3(0.0), dvec3(0.0), 0.0f), rays_[i].id = i;
+    std::fill(std::begin(target_), std::end(target_), -1);
   }
   OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object, const Zone& zone,
                  DbCache& db)
@@ -131,15 +163,20 @@ class OcclusionBatch {
     db_ = &db;
   }
   ~OcclusionBatch() { flush(); }
+  OcclusionBatch(const OcclusionBatch&) = delete;  // coincident_rays_ points into it
+  OcclusionBatch& operator=(const OcclusionBatch&) = delete;
 
   // Segment from receiver point x (normal n) to target y, carrying `irradiance` to the receiver's
   // front or back side; y is pulled off its own surface along target_normal, towards x, by epsilon
   // plus `lift` (how far that surface may lie off the traced one). Forced inline: it runs once per
   // ray, between the form factors; called, it ran in the baseline ISA (dispatch.h), recomputed what
   // its caller had already worked out (a cell's offset and both heights) and took eight arguments.
+  // With `target_object`, y lies on a patch of that object that may lie under another object's
+  // surface (Visibility::may_lie_under), and the segment is traced as Coincident says.
   __attribute__((always_inline)) void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y,
                                                const dvec3& target_normal, bool front, const dvec3& irradiance,
-                                               double lift = 0.0) {
+                                               double lift = 0.0, int target_object = -1) {
+    if (target_object >= 0) return through(receiver, x, n, y, target_normal, front, irradiance, lift, target_object);
     dvec3 origin, dir;
     segment_ends(x, n, y, target_normal, vis_.epsilon(), lift, origin, dir);
     segment(receiver, origin, dir, front, irradiance);
@@ -171,11 +208,18 @@ class OcclusionBatch {
  private:
   // A segment is pushed with tfar = kSegment; flush() shortens it to stop epsilon before its end.
   static constexpr float kSegment = 1.0f;
+  // A segment traced through its end's plane (Coincident) is not shortened.
+  static constexpr float kThrough = 0.99999994f;
+
+  void through(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal, bool front,
+               const dvec3& irradiance, double lift, int target_object);
 
   dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver - first_]; }
-  __attribute__((always_inline)) void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance) {
+  __attribute__((always_inline)) void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance,
+                                           int target_object = -1, float zone_start = 0.0f) {
     ++pushed_;
     if (zone_ && !zone_->crossed_by(origin, dir, tfar)) return;
+    if (target_object >= 0) target_[count_] = target_object, zone_start_[count_] = zone_start, coincident_ = true;
     aim(rays_[count_], origin, dir, tfar);
     into_[count_] = into;
     carried_[count_] = irradiance;
@@ -183,6 +227,7 @@ class OcclusionBatch {
   }
   unsigned keep_changed();  // leaves the rays the changed object's move made a difference to
   unsigned trace_without();  // occluded_without for the kept rays, through the dB cache; returns rays traced
+  const Coincident* coincident() const { return coincident_ ? &coincident_rays_ : nullptr; }
 
   static constexpr unsigned kCapacity = 256;
   const Visibility& vis_;
@@ -196,6 +241,11 @@ class OcclusionBatch {
   RTCRay rays_[kCapacity];
   dvec3* into_[kCapacity];  // the accumulator (receiver and side) each ray adds to
   dvec3 carried_[kCapacity];
+  // Per slot (ray id): Coincident's data; -1 at rest, set by push for the few rays that need it.
+  int target_[kCapacity];
+  float zone_start_[kCapacity];
+  bool coincident_ = false;  // some ray of the batch has them
+  const Coincident coincident_rays_{target_, zone_start_};
   unsigned count_ = 0;
   long long traced_ = 0;
   long long pushed_ = 0;
