@@ -98,7 +98,7 @@ struct ShotBuilder {
     const Patch& anchor = mesh.patches[n.anchor];
     e.anchor = n.aim;
     e.anchor_lift = n.aim_lift;
-    if (vis && vis->may_lie_under(n.anchor)) e.anchor_under_object = anchor.object;
+    if (vis && vis->may_lie_under(n.anchor)) e.anchor_under_patch = n.anchor;
     for (int side = 0; side < 2; ++side) {
       auto mean_unshot = [&](int patch) {
         const CornerUnshot& u = unshot[patch];
@@ -142,7 +142,7 @@ struct ShotBuilder {
         }
       }
       light.lift = bilinear_bulge(light.corner, patch.normal);
-      if (vis && vis->may_lie_under(p)) light.under_object = patch.object;
+      if (vis && vis->may_lie_under(p)) light.under_patch = p;
       cells.resize(k * k);
       bilinear_cells(light.corner, k, cells.data());
       const std::vector<uint8_t>* seen[2] = {nullptr, nullptr};  // per cell, a bit per corner it sees
@@ -382,7 +382,7 @@ RADIOSITY_LANES auto cluster_form_factor(const V& x, const V& n, const Element& 
 template <class Factor>
 __attribute__((always_inline)) inline void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centre,
                                                      const dvec3& target, const dvec3& normal, Factor&& factor,
-                                                     const dvec3 radiance[2], double lift, int under_object,
+                                                     const dvec3 radiance[2], double lift, int under_patch,
                                                      OcclusionBatch& batch) {
   dvec3 d = centre - x;
   const dvec3& rad = radiance[glm::dot(normal, d) <= 0 ? 0 : 1];  // <= 0: x in front of the element
@@ -390,7 +390,7 @@ __attribute__((always_inline)) inline void far_sample(int receiver, const dvec3&
   if (is_zero(rad) || cos_r == 0) return;
   double f = factor();
   if (!(f > 0)) return;
-  batch.to_point(receiver, x, n, target, normal, cos_r > 0, rad * f, lift, under_object);
+  batch.to_point(receiver, x, n, target, normal, cos_r > 0, rad * f, lift, under_patch);
 }
 
 // What lights the pieces of one cell near a receiver: its patch, the side facing the receiver, and
@@ -470,7 +470,7 @@ RADIOSITY_HOT void exact_piece(int receiver, const dvec3& x, const dvec3& n, con
     if (light.patch.piece) radiance += (*light.patch.piece)(target, p.cell.normal, light.side);
     dvec3 e = radiance * (part == 0 ? f.front : f.back);
     if (!is_zero(e))
-      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0, e, light.patch.lift, light.patch.under_object);
+      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0, e, light.patch.lift, light.patch.under_patch);
   };
   if (f.front > 0 && f.back > 0) {
     double h[4];
@@ -584,7 +584,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
           if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
             far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal,
                        [&]() __attribute__((always_inline)) { return *factor; }, sc.radiance, patch.lift,
-                       patch.under_object, batch);
+                       patch.under_patch, batch);
             continue;
           }
           exact_cell(receiver, x, n, shot, sc, glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1, batch);
@@ -600,7 +600,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       if (far) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal,
                    [&]() __attribute__((always_inline)) { return cluster_form_factor(x, n, e); }, e.radiance,
-                   e.anchor_lift, e.anchor_under_object, batch);
+                   e.anchor_lift, e.anchor_under_patch, batch);
         continue;
       }
       stack[top++] = e.right;
@@ -636,9 +636,9 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       } else if (sends[l]) {
         const ShotElement& e = shot.elements[shot.frontier[first + l]];
         if (zone && !zone->may_cross(x, far_end(e, batch.visibility().epsilon()))) continue;
-        if (e.anchor_under_object >= 0)
+        if (e.anchor_under_patch >= 0)
           batch.to_point(receiver, x, n, e.anchor, e.normal, cos_r[l] > 0, lane(irradiance, l), e.anchor_lift,
-                         e.anchor_under_object);
+                         e.anchor_under_patch);
         else
           batch.segment(receiver, lane(origin, l), lane(dir, l), cos_r[l] > 0, lane(irradiance, l));
       }

@@ -35,7 +35,7 @@ using PieceRadiance = std::function<dvec3(const dvec3& y, const dvec3& m, int si
 struct ShotPatch {
   int point[4] = {-1, -1, -1, -1};   // receiving points at the corners (none for lamps)
   double lift = 0.0;  // how far its bilinear surface may lie off the two triangles Embree traces
-  int under_object = -1;  // its object, where it may lie under another's surface (Coincident)
+  int under_patch = -1;  // its patch, where it may lie under another surface (Coincident)
   dvec3 corner[4];
   dvec3 radiance[4][2];              // [corner][side], side 0 = front
   const PieceRadiance* piece = nullptr;
@@ -65,7 +65,7 @@ struct ShotElement {
   Symmetric3 spread;            // second moment of its area in its plane (flat clusters)
   dvec3 anchor{0.0};  // where its far sample's ray aims (ClusterNode::aim)
   double anchor_lift = 0.0;  // ClusterNode::aim_lift
-  int anchor_under_object = -1;  // as ShotPatch::under_object, for the anchor's patch
+  int anchor_under_patch = -1;  // as ShotPatch::under_patch, for the anchor's patch
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
   // ClusterNode::planar. On a wall or floor, a receiver's walk reached the patches round it in its
   // own plane and split them finely, for rays that came to nothing.

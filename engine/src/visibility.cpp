@@ -61,6 +61,7 @@ void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
   rtcReleaseGeometry(quads);
   if (object_of_geometry_.size() <= o.geometry) object_of_geometry_.resize(o.geometry + 1, -1);
   object_of_geometry_[o.geometry] = int(objects_.size() - 1);
+  o.patch_begin = obj.patch_begin;
   if (!shown) {
     o.visible[0] = o.visible[1] = false;
     rtcDisableGeometry(o.instance);
@@ -70,7 +71,7 @@ void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
 void Visibility::add_object(const PatchMesh& mesh) {
   attach(mesh, true, false);
   rtcCommitScene(top_);
-  under_.resize(mesh.patches.size(), 0);  // hidden: it lies on nothing, and nothing on it
+  find_coincident(mesh, dvec3(INFINITY), dvec3(-INFINITY));  // hidden: it lies on nothing, nor anything on it
 }
 
 Visibility::~Visibility() {
@@ -173,7 +174,10 @@ void filter_hits(const RTCFilterFunctionNArguments* args) {
     if (target < 0 || RTCRayN_tfar(args->ray, args->N, i) < f.coincident->zone_start[id]) continue;
     int object = f.only_object >= 0 ? f.only_object
                  : f.vis->object_of(instance != RTC_INVALID_GEOMETRY_ID ? instance : RTCHitN_geomID(args->hit, args->N, i));
-    if (object >= target) args->valid[i] = 0;
+    if (object < target) continue;
+    int patch = f.coincident->target_patch[id];
+    if (object > target || patch < 0 || f.vis->patch_begin(object) + int(RTCHitN_primID(args->hit, args->N, i)) >= patch)
+      args->valid[i] = 0;
   }
 }
 
@@ -215,8 +219,10 @@ void Visibility::occluded(RTCRay* rays, unsigned count, const Coincident* coinci
 
 void Visibility::find_coincident(const PatchMesh& mesh, dvec3 lo, dvec3 hi) {
   under_.resize(mesh.patches.size(), 0);
-  // Each patch is probed at 3 x 3 points by a short ray through its plane, against objects of
-  // lower index: four epsilon either way, as far as Coincident's zones reach.
+  for (size_t q = patch_object_.size(); q < mesh.patches.size(); ++q) patch_object_.push_back(mesh.patches[q].object);
+  // Each patch is probed at 3 x 3 points by a short ray through its plane, four epsilon either
+  // way (as far as Coincident's zones reach): against objects of lower index, then also against
+  // its own object's patches of lower index. A point only the second finds lies on its own.
   constexpr int kProbes = 9;
   double reach = 4 * epsilon_;
   lo -= reach, hi += reach;
@@ -230,20 +236,26 @@ void Visibility::find_coincident(const PatchMesh& mesh, dvec3 lo, dvec3 hi) {
     dvec3 phi = glm::max(glm::max(corner[0], corner[1]), glm::max(corner[2], corner[3]));
     if (glm::any(glm::lessThan(phi, lo)) || glm::any(glm::greaterThan(plo, hi))) continue;
     under_[q] = 0;
-    if (patch.area == 0 || patch.object == 0) continue;
-    RTCRay rays[kProbes];
-    int target[kProbes];
+    if (patch.area == 0) continue;
+    RTCRay rays[2][kProbes];
+    int target[kProbes], own[2][kProbes];
     float zone[kProbes];
     for (int k = 0; k < kProbes; ++k) {
       double u = (1 + 2 * (k % 3)) / 6.0, v = (1 + 2 * (k / 3)) / 6.0;
       dvec3 y = bilinear(corner, u, v);
-      rays[k] = make_ray(y + reach * patch.normal, -2 * reach * patch.normal, 1.0f);
-      rays[k].id = unsigned(k);
-      target[k] = patch.object, zone[k] = 0.0f;
+      rays[0][k] = make_ray(y + reach * patch.normal, -2 * reach * patch.normal, 1.0f);
+      rays[0][k].id = unsigned(k);
+      rays[1][k] = rays[0][k];
+      target[k] = patch.object, own[0][k] = -1, own[1][k] = q, zone[k] = 0.0f;
     }
-    Coincident probe{target, zone};
-    occluded(rays, kProbes, &probe);
-    for (const RTCRay& r : rays) under_[q] = under_[q] || r.tfar < 0;
+    for (int pass = 0; pass < 2; ++pass) {
+      Coincident probe{target, own[pass], zone};
+      occluded(rays[pass], kProbes, &probe);
+    }
+    for (int k = 0; k < kProbes; ++k) {
+      if (rays[0][k].tfar < 0) under_[q] |= kOnOther;
+      else if (rays[1][k].tfar < 0) under_[q] |= kOnOwn;
+    }
   }
 }
 
@@ -289,7 +301,7 @@ void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, c
 }
 
 void OcclusionBatch::through(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& m, bool front,
-                             const dvec3& irradiance, double lift, int target_object) {
+                             const dvec3& irradiance, double lift, int under_patch) {
   double eps = vis_.epsilon();
   dvec3 origin, dir;
   segment_ends(x, n, y, m, eps, lift, origin, dir);
@@ -299,7 +311,7 @@ void OcclusionBatch::through(int receiver, const dvec3& x, const dvec3& n, const
   dvec3 past = 2.0 * y - short_end - origin;
   double length = glm::length(past);
   double zone = (glm::dot(dir, past) / length - eps) / length;
-  push(&sum(receiver, front), origin, past, kThrough, share_[!front] * irradiance, target_object, float(zone));
+  push(&sum(receiver, front), origin, past, kThrough, share_[!front] * irradiance, under_patch, float(zone));
 }
 
 unsigned OcclusionBatch::keep_changed() {

@@ -48,16 +48,20 @@ RADIOSITY_LANES void segment_ends(const V& x, const V& n, const V& y, const V& m
   dir = end - origin;
 }
 
-// Rays that end on a surface another object's may lie on (a box's bottom on the floor, the tops of
-// two boxes standing in each other). Such a ray is traced on through its end's plane, and a hit
-// near its end blocks it only on an object of lower index than its target's: of coincident
-// surfaces one is seen, as a ray tracer's first hit sees one. Ending short of the plane, as other
-// rays do, saw all of them: a box's inside saw the floor and its own bottom, two boxes standing in
-// each other saw the floor three times and their tops twice, and reflected more than they took in
-// (the solve diverged). Per ray id: the target's object (-1: an ordinary ray) and the ray parameter
-// where its end's zone starts.
+// Rays that end on a surface another one may lie on (a box's bottom on the floor, the tops of two
+// boxes standing in each other, faces doubled in one mesh). Such a ray is traced on through its
+// end's plane, and a hit near its end blocks it only on an object of lower index than its target's,
+// or, where the target lies on its own object's patches, on a patch of lower index there: of
+// coincident surfaces one is seen, as a ray tracer's first hit sees one. Ending short of the
+// plane, as other rays do, saw all of them: a box's inside saw the floor and its own bottom, two
+// boxes standing in each other saw the floor three times and their tops twice, and reflected more
+// than they took in (the solve diverged). Same-object patches block only where the target needs it:
+// a ray to a patch corner would be stopped by the patches that share it. Per ray id: the target's
+// object (-1: an ordinary ray), its patch (-1: its own object's patches do not block), and the ray
+// parameter where its end's zone starts.
 struct Coincident {
   const int* target_object;
+  const int* target_patch;
   const float* zone_start;
 };
 
@@ -86,12 +90,17 @@ class Visibility {
   // Rays against the whole scene except one moved object.
   void occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident = nullptr) const;
 
-  // Whether part of a patch may lie on a surface of an object of lower index (within a few
-  // epsilon, facing either way): rays to it must then be traced as Coincident says. Kept for the
-  // geometry as it is: worked out for every patch, and after a move for those near the object.
+  // Whether part of a patch may lie on a surface of an object of lower index, or on a patch of
+  // lower index of its own object (within a few epsilon, facing either way): rays to it must then
+  // be traced as Coincident says. Kept for the geometry as it is: worked out for every patch, and
+  // after a move for those near the object.
   bool may_lie_under(int patch) const { return under_[patch] != 0; }
-  // The object whose quads are geometry `geometry` of the top-level scene (or its instance).
+  bool lies_on_own(int patch) const { return under_[patch] & kOnOwn; }
+  int object_of_patch(int patch) const { return patch_object_[patch]; }
+  // The first patch of the object whose quads are geometry `geometry` of the top-level scene (or
+  // its instance), and that object.
   int object_of(unsigned geometry) const { return object_of_geometry_[geometry]; }
+  int patch_begin(int object) const { return objects_[object].patch_begin; }
 
   // Whether points a and b of surfaces with normals na, nb see each other on the side the normals
   // point to. The ends are lifted off their surfaces by more than the surface can bulge between
@@ -114,6 +123,7 @@ class Visibility {
     bool visible[2] = {true, true};
     int now = 0;
     dvec3 lo{INFINITY}, hi{-INFINITY};  // bounds where its last move left it (none before)
+    int patch_begin = 0;  // its quads' primitive ids count from here in the patch mesh
   };
   void attach(const PatchMesh& mesh, bool dynamic, bool shown);  // the mesh's next object
   RTCScene new_object_scene();
@@ -125,7 +135,9 @@ class Visibility {
   RTCScene top_ = nullptr;
   std::vector<Object> objects_;
   std::vector<int> object_of_geometry_;
-  std::vector<char> under_;  // per patch: may_lie_under
+  static constexpr char kOnOther = 1, kOnOwn = 2;
+  std::vector<char> under_;        // per patch: may_lie_under, as kOnOther | kOnOwn
+  std::vector<int> patch_object_;  // per patch
   double epsilon_;
   struct Recording {
     std::mutex mutex;
@@ -171,12 +183,12 @@ class OcclusionBatch {
   // plus `lift` (how far that surface may lie off the traced one). Forced inline: it runs once per
   // ray, between the form factors; called, it ran in the baseline ISA (dispatch.h), recomputed what
   // its caller had already worked out (a cell's offset and both heights) and took eight arguments.
-  // With `target_object`, y lies on a patch of that object that may lie under another object's
-  // surface (Visibility::may_lie_under), and the segment is traced as Coincident says.
+  // With `under_patch`, y lies on that patch, which may lie under another surface
+  // (Visibility::may_lie_under), and the segment is traced as Coincident says.
   __attribute__((always_inline)) void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y,
                                                const dvec3& target_normal, bool front, const dvec3& irradiance,
-                                               double lift = 0.0, int target_object = -1) {
-    if (target_object >= 0) return through(receiver, x, n, y, target_normal, front, irradiance, lift, target_object);
+                                               double lift = 0.0, int under_patch = -1) {
+    if (under_patch >= 0) return through(receiver, x, n, y, target_normal, front, irradiance, lift, under_patch);
     dvec3 origin, dir;
     segment_ends(x, n, y, target_normal, vis_.epsilon(), lift, origin, dir);
     segment(receiver, origin, dir, front, irradiance);
@@ -212,14 +224,18 @@ class OcclusionBatch {
   static constexpr float kThrough = 0.99999994f;
 
   void through(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal, bool front,
-               const dvec3& irradiance, double lift, int target_object);
+               const dvec3& irradiance, double lift, int under_patch);
 
   dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver - first_]; }
   __attribute__((always_inline)) void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance,
-                                           int target_object = -1, float zone_start = 0.0f) {
+                                           int under_patch = -1, float zone_start = 0.0f) {
     ++pushed_;
     if (zone_ && !zone_->crossed_by(origin, dir, tfar)) return;
-    if (target_object >= 0) target_[count_] = target_object, zone_start_[count_] = zone_start, coincident_ = true;
+    if (under_patch >= 0) {
+      target_[count_] = vis_.object_of_patch(under_patch);
+      target_patch_[count_] = vis_.lies_on_own(under_patch) ? under_patch : -1;
+      zone_start_[count_] = zone_start, coincident_ = true;
+    }
     aim(rays_[count_], origin, dir, tfar);
     into_[count_] = into;
     carried_[count_] = irradiance;
@@ -243,9 +259,10 @@ class OcclusionBatch {
   dvec3 carried_[kCapacity];
   // Per slot (ray id): Coincident's data; -1 at rest, set by push for the few rays that need it.
   int target_[kCapacity];
+  int target_patch_[kCapacity];
   float zone_start_[kCapacity];
   bool coincident_ = false;  // some ray of the batch has them
-  const Coincident coincident_rays_{target_, zone_start_};
+  const Coincident coincident_rays_{target_, target_patch_, zone_start_};
   unsigned count_ = 0;
   long long traced_ = 0;
   long long pushed_ = 0;

@@ -463,7 +463,7 @@ def test_a_solve_that_diverges_stops_and_says_so():
     m = scene.add_material((0.5, 0.5, 0.5))
     crumpled = scene.add_mesh(positions, np.array([len(f) for f in faces], np.int32),
                               np.array(sum(faces, []), np.int32), np.zeros(len(faces), np.int32),
-                              refine="catmull_clark", level=2)
+                              refine="catmull_clark", level=2, name="Crumpled")
     far = Mesh()
     far.add_face([(-836, -1716, 1812), (-835.99, -1716, 1812), (-835.99, -1715.99, 1812), (-836, -1715.99, 1812)], m)
     far.add_to(scene)
@@ -472,7 +472,7 @@ def test_a_solve_that_diverges_stops_and_says_so():
     solver = engine.Solver(scene, settings)
     stats = solver.solve()
     assert stats["diverged"] and not stats["converged"] and stats["shots"] < 200
-    assert "diverged" in stats["warnings"][-1]
+    assert "diverged" in stats["warnings"][-1] and "most of it in 'Crumpled'" in stats["warnings"][-1]
     assert np.isfinite(solver.corner_radiance(crumpled)).all()
 
 
@@ -533,26 +533,25 @@ def test_a_furnace_standing_on_a_floor_sees_its_bottom_once(floor_first):
         assert np.abs(b - 1).max() < 2e-3, b
 
 
-def test_faces_doubled_in_one_mesh_name_it_when_the_light_runs_away():
-    """Faces doubled within one mesh are seen twice (coincident surfaces are told apart by object:
-    within one, a ray to a patch corner would be stopped by the patches that share it). Inside an
-    emitting box facing in, every face doubled, rho times the view is 1.8: the light runs away. The
-    solve stops, and says which object holds it and why that may be."""
+def test_faces_doubled_in_one_mesh_are_seen_once():
+    """An emitting box facing in (rho 0.9) with every face doubled in its one mesh: a point inside
+    sees each wall once only if, of a face and its double, the patch of lower index blocks rays to
+    the other (visibility.h, Coincident). Seen twice, rho times the view is 1.8 and the solve ran
+    away."""
     rho = 0.9
     scene = engine.Scene()
     m = scene.add_material((rho,) * 3, (1.0, 1.0, 1.0))
     box = Mesh()
     box.add_box((0, 0, 0), (2, 2, 2), m, inward=True)
     box.add_box((0, 0, 0), (2, 2, 2), m, inward=True)
-    box.add_to(scene, name="Doubled")
-    floor = Mesh()
-    floor.add_face([(-3, -3, -2), (3, -3, -2), (3, 3, -2), (-3, 3, -2)], m)
-    floor.add_to(scene, name="Floor")
-    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    obj = box.add_to(scene)
+    settings = engine.Settings.preset("draft")
+    settings.threshold = 1e-4
+    solver = engine.Solver(scene, settings)
     stats = solver.solve()
-    assert stats["diverged"] and not stats["converged"]
-    assert "most of it in 'Doubled'" in stats["warnings"][-1] and "overlap" in stats["warnings"][-1]
-    assert np.isfinite(solver.corner_radiance(0)).all()
+    assert stats["converged"] and not stats["diverged"]
+    b = solver.corner_radiance(obj)[:, 0] * (1 - rho)
+    assert np.abs(b - 1).max() < 2e-3, b
 
 
 def test_catmull_clark_refines_onto_the_limit_surface():
