@@ -5,7 +5,8 @@ Closest, the node's extension; an 8-bit sRGB image interpolated as stored and th
 Cycles keeps such images compressed), the UVs from a UV Map node, a Texture Coordinate node's UV or
 the default map, through a Mapping node if there is one; Mix and colour-correction nodes of those
 and plain colours, a Color Ramp on one of them, and a Mix's factor taken from one (as Cycles takes a
-colour for a number: its luminance). And `Images`, what exports read from images (world.py reads
+colour for a number: its luminance) or from an image's alpha, which also changes its colour as
+Cycles 3.4 takes it (`alpha_handling`). And `Images`, what exports read from images (world.py reads
 environments).
 
 Cycles reads the texture wherever it shades; the engine gets it at the mesh's face corners and
@@ -30,6 +31,12 @@ class TextureRef:
     extension: str                # 'REPEAT', 'EXTEND', 'CLIP', 'MIRROR'
     factor: np.ndarray            # (3,) what the BSDF multiplies the colour by (Principled: metal, transmission)
     mapping: np.ndarray = None    # (3, 4): a Mapping node's affine map of (u, v, 0, 1), or None
+    output: str = "Color"         # the node's output read: "Alpha" gives (alpha, alpha, alpha)
+    # What Cycles makes of the image's alpha (`alpha_handling`): an 8-bit image's colour multiplied
+    # by it on load, where Blender keeps it straight; divided by it again at the texel read, where
+    # the node's Alpha output is used.
+    premultiply: bool = False
+    unassociate: bool = False
 
 
 @dataclass
@@ -168,7 +175,11 @@ def _input_number(node, socket, warnings, depth):
     or its unlinked value."""
     if not socket.is_linked:
         return float(socket.default_value)
-    source = colour_source(socket, warnings, depth + 1) if socket.links[0].from_socket.type == 'RGBA' else None
+    link = socket.links[0]
+    if link.from_node.type == 'TEX_IMAGE' and link.from_socket.identifier == 'Alpha':   # its (a, a, a)'s gray is a
+        source = image_texture(socket, warnings)
+    else:
+        source = colour_source(socket, warnings, depth + 1) if link.from_socket.type == 'RGBA' else None
     if source is None:
         warnings.append(f"{node.name}.{socket.name} is linked to a node or output not followed; its unlinked value "
                         "is used")
@@ -340,7 +351,23 @@ def image_texture(socket, warnings):
             warnings.append(f"{node.name}: texture coordinates from a {what} are not followed; "
                             "the default UV map is used")
             mapping = None
-    return TextureRef(node.image, uv_map, node.interpolation, node.extension, np.ones(3), mapping)
+    premultiply, unassociate = alpha_handling(node)
+    return TextureRef(node.image, uv_map, node.interpolation, node.extension, np.ones(3), mapping,
+                      socket.links[0].from_socket.identifier, premultiply, unassociate)
+
+
+def alpha_handling(node):
+    """(premultiply, unassociate) for an Image Texture node, as Cycles 3.4 takes its image's alpha
+    (ImageTextureNode and BlenderImageLoader): a colour image (not Non-Color, alpha mode neither
+    Channel Packed nor None) is associated with its alpha on load, the 8-bit ones by Cycles, the
+    float ones already by Blender; and divided by it at the read when the node's Alpha output
+    feeds a node (Cycles drops nodes whose outputs lead nowhere). Before 2026-12-03 an 8-bit sRGB
+    PNG with transparency baked up to 20 times too bright where it was transparent."""
+    image = node.image
+    associated = image.colorspace_settings.name != 'Non-Color' and image.alpha_mode not in ('CHANNEL_PACKED', 'NONE')
+    used = any(link.to_node.type == 'OUTPUT_MATERIAL' or any(out.is_linked for out in link.to_node.outputs)
+               for link in node.outputs["Alpha"].links)
+    return associated and not image.is_float, associated and used
 
 
 def _rotation(euler):
@@ -466,22 +493,22 @@ def mean_of(source, images):
         return float(gray(mean_of(source.colour, images)))
     if isinstance(source, RampRef):
         return ramped(source, mean_of(source.fac, images))
-    base = mean_colour(source.image, images) if isinstance(source, TextureRef) else np.zeros(3)
+    base = mean_colour(source, images) if isinstance(source, TextureRef) else np.zeros(3)
     return base * source.factor
 
 
-def mean_colour(image, images):
-    """(3,) mean linear RGB of an image (zeros if it has no pixels), over about 256 x 256 of its
-    texels: it only stands in where a mesh has no UVs, and a 2k sRGB image made linear whole took
-    0.2 s of an export."""
+def mean_colour(ref, images):
+    """(3,) mean linear RGB of `ref`'s image as its node reads it (zeros if it has no pixels), over
+    about 256 x 256 of its texels: it only stands in where a mesh has no UVs, and a 2k sRGB image
+    made linear whole took 0.2 s of an export."""
     def work():
-        px = images.pixels(image)
+        px = images.pixels(ref.image)
         step = max(1, max(px.shape[:2]) // 256)
-        px = px[::step, ::step, :3]
+        px = _stored(ref, px[::step, ::step].reshape(-1, 4))
         if not px.size:
             return np.zeros(3)
-        return (srgb_to_linear(px) if encoded_srgb(image) else px).mean((0, 1), dtype=np.float64)
-    return images.sampled(image, "mean", None, work)
+        return _read_out(ref, px).mean(0, dtype=np.float64)
+    return images.sampled(ref.image, ("mean", ref.output, ref.premultiply, ref.unassociate), None, work)
 
 
 def corner_colours(ref, uv, images, user=""):
@@ -490,9 +517,30 @@ def corner_colours(ref, uv, images, user=""):
     its face: a UV on a texel's edge reads the texel on the face's side, so pass UVs a hair inside
     their faces."""
     uv = _mapped(ref, uv)
-    colour = images.sampled(ref.image, ("corners", user, ref.interpolation, ref.extension), uv,
-                            lambda: _texels_at(ref, uv, images))
+    key = ("corners", user, ref.interpolation, ref.extension, ref.output, ref.premultiply, ref.unassociate)
+    colour = images.sampled(ref.image, key, uv, lambda: _texels_at(ref, uv, images))
     return colour * ref.factor
+
+
+def _stored(ref, px):
+    """Texels (..., 4) as Cycles holds them: an 8-bit image's colour associated with its alpha as
+    Cycles does it, on the bytes ((c * a) / 255 in integers)."""
+    if not ref.premultiply:
+        return px
+    byte = np.rint(px * 255.0)
+    return np.concatenate([np.floor(byte[..., :3] * byte[..., 3:] / 255.0) / 255.0, px[..., 3:]], -1)
+
+
+def _read_out(ref, px):
+    """(K, 3) linear RGB of the node's output from texels (K, 4) as interpolated: the colour divided
+    by its alpha where Cycles unassociates it (alpha neither 0 nor 1) and made linear, or the alpha."""
+    if ref.output == "Alpha":
+        return np.repeat(px[:, 3:], 3, 1).astype(np.float64)
+    colour = px[:, :3].astype(np.float64)
+    if ref.unassociate:
+        a = px[:, 3:].astype(np.float64)
+        colour = np.where((a != 0) & (a != 1), colour / np.where(a != 0, a, 1.0), colour)
+    return srgb_to_linear(colour) if encoded_srgb(ref.image) else colour
 
 
 def _texels_at(ref, uv, images):
@@ -503,18 +551,17 @@ def _texels_at(ref, uv, images):
     x = uv[:, 0] * w - 0.5
     y = uv[:, 1] * h - 0.5
     if ref.interpolation == 'Closest':
-        colour = px[_wrap(np.floor(y + 0.5).astype(np.int64), h, ref.extension),
-                    _wrap(np.floor(x + 0.5).astype(np.int64), w, ref.extension), :3].astype(np.float64)
+        texel = _stored(ref, px[_wrap(np.floor(y + 0.5).astype(np.int64), h, ref.extension),
+                                _wrap(np.floor(x + 0.5).astype(np.int64), w, ref.extension)].astype(np.float64))
     else:   # Linear; Cubic and Smart taken as Linear
         x0, y0 = np.floor(x), np.floor(y)
         fx, fy = (x - x0)[:, None], (y - y0)[:, None]
         x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
         xs = [_wrap(x0, w, ref.extension), _wrap(x0 + 1, w, ref.extension)]
         ys = [_wrap(y0, h, ref.extension), _wrap(y0 + 1, h, ref.extension)]
-        colour = ((1 - fx) * (1 - fy) * px[ys[0], xs[0], :3] + fx * (1 - fy) * px[ys[0], xs[1], :3]
-                  + (1 - fx) * fy * px[ys[1], xs[0], :3] + fx * fy * px[ys[1], xs[1], :3])
-    if encoded_srgb(ref.image):
-        colour = srgb_to_linear(colour)
+        at = lambda j, i: _stored(ref, px[ys[j], xs[i]])
+        texel = (1 - fx) * (1 - fy) * at(0, 0) + fx * (1 - fy) * at(0, 1) + (1 - fx) * fy * at(1, 0) + fx * fy * at(1, 1)
+    colour = _read_out(ref, texel)
     if ref.extension == 'CLIP':
         outside = (uv < 0).any(1) | (uv > 1).any(1)
         colour = np.where(outside[:, None], 0.0, colour)

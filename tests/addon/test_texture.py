@@ -147,7 +147,8 @@ def test_frames_reuse_what_was_sampled_and_an_edit_reads_the_image_again(addon, 
     assert np.array_equal(addon.export.export_scene().mesh(ob.name).corner_reflectance, first)  # reads
 
     grey = 0.5
-    bpy.data.images["Texels"].pixels.foreach_set(np.full(4 * 4 * 4, grey, np.float32))
+    opaque_grey = np.tile(np.float32([grey, grey, grey, 1.0]), 4 * 4)   # alpha 1: nothing premultiplied
+    bpy.data.images["Texels"].pixels.foreach_set(opaque_grey)
     ob.location.x += 0.01                             # an edit: the depsgraph handler exports anew
     bpy.context.view_layer.update()
     assert live.last_sync[scene.name]["mode"] == "incremental" and reads == ["Texels"] * 3
@@ -296,16 +297,47 @@ def test_a_mix_factor_from_a_texture_or_attribute_reaches_the_corners_as_cycles_
 
 
 def test_a_number_from_an_output_not_followed_is_reported(addon):
-    """The texture's alpha into a Color Ramp's factor: the factor's unlinked value, and a warning."""
+    """A Noise Texture's Fac into a Color Ramp's factor: the factor's unlinked value, and a warning."""
     ob = textured_grid("Linear", "sRGB", 1.0)
     tree = ob.active_material.node_tree
     node = tree.nodes.new("ShaderNodeValToRGB")
     node.inputs["Fac"].default_value = 0.25
-    tree.links.new(tree.nodes["Image Texture"].outputs["Alpha"], node.inputs["Fac"])
+    tree.links.new(tree.nodes.new("ShaderNodeTexNoise").outputs["Fac"], node.inputs["Fac"])
     tree.links.new(node.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
     sx = addon.export.export_scene()
     assert any("Fac is linked to a node or output not followed" in w for w in sx.warnings), sx.warnings
     np.testing.assert_allclose(sx.materials[0].reflectance, node.color_ramp.evaluate(0.25)[:3], atol=0.01)
+
+
+# An image with transparency (alpha 0.1-1 per texel) in each of Cycles' ways of taking it: the 8-bit
+# image's colour is associated with its alpha on load (multiplied, on the bytes); where the node's
+# Alpha output feeds a node it is divided by it again; a Channel Packed image's is left alone; a
+# float image's pixels are associated already. "mix": the alpha as a Mix factor of the texture's
+# colour over a plain one; "alpha": the Alpha output straight into the BSDF's colour, as a gray.
+ALPHA_CASES = [("STRAIGHT", False, "colour"), ("STRAIGHT", False, "mix"), ("PREMUL", False, "alpha"),
+               ("CHANNEL_PACKED", False, "colour"), ("STRAIGHT", True, "colour")]
+
+
+@pytest.mark.parametrize("mode, is_float, use", ALPHA_CASES,
+                         ids=[f"{m}-{'float' if f else 'byte'}-{u}" for m, f, u in ALPHA_CASES])
+def test_an_images_alpha_reaches_the_corners_as_cycles_bakes_it(addon, mode, is_float, use):
+    ob = textured_grid("Linear", "sRGB", 1.0)
+    tree = ob.active_material.node_tree
+    tex, bsdf = tree.nodes["Image Texture"], tree.nodes["Diffuse BSDF"]
+    if is_float:
+        tex.image = bpy.data.images.new("Float", 4, 4, alpha=True, float_buffer=True)
+    tex.image.alpha_mode = mode
+    alpha = np.random.default_rng(5).uniform(0.1, 1.0, (4, 4, 1))
+    tex.image.pixels.foreach_set(np.concatenate([TEXELS, alpha], 2).astype(np.float32).ravel())
+    if use == "mix":
+        mix = tree.nodes.new("ShaderNodeMixRGB")
+        mix.inputs["Color1"].default_value = (0.9, 0.5, 0.1, 1.0)
+        tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
+        tree.links.new(tex.outputs["Color"], mix.inputs["Color2"])
+        tree.links.new(mix.outputs[0], bsdf.inputs["Color"])
+    elif use == "alpha":
+        tree.links.new(tex.outputs["Alpha"], bsdf.inputs["Color"])
+    corners_as_cycles_bakes_them(addon, ob, f"{mode} {'float' if is_float else '8-bit'} {use}")
 
 
 ADJUSTS = [("ShaderNodeInvert", {"Fac": 0.7}), ("ShaderNodeGamma", {"Gamma": 2.2}),
