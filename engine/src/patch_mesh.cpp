@@ -186,6 +186,49 @@ void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals, int fi
   obj.point_end = point_normal.empty() ? 0 : points;
 }
 
+// ObjectPatches::enclosed_side: closed if each directed edge of the input faces comes once and its
+// reverse once (shared vertices: a mesh whose faces do not share theirs counts as open); the inside
+// is behind the front sides where the patches enclose a positive volume.
+int enclosed_side(const PatchMesh& pm, const MeshDesc& mesh, const ObjectPatches& obj) {
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(mesh.face_vertices.size());
+  for (size_t f = 0, offset = 0; f < mesh.face_sizes.size(); offset += mesh.face_sizes[f++])
+    for (int k = 0; k < mesh.face_sizes[f]; ++k) {
+      int a = mesh.face_vertices[offset + k], b = mesh.face_vertices[offset + (k + 1) % mesh.face_sizes[f]];
+      if (a == b) return -1;
+      edges.emplace_back(a, b);
+    }
+  std::sort(edges.begin(), edges.end());
+  for (size_t i = 0; i < edges.size(); ++i) {
+    if (i + 1 < edges.size() && edges[i + 1] == edges[i]) return -1;
+    if (!std::binary_search(edges.begin(), edges.end(), std::make_pair(edges[i].second, edges[i].first))) return -1;
+  }
+  if (edges.empty()) return -1;
+  // Three times the volume, about a point of the surface (round-off far from the origin).
+  const dvec3& base = pm.patches[obj.patch_begin].centre;
+  double volume = 0.0, area = 0.0;
+  for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
+    const Patch& p = pm.patches[q];
+    volume += p.area * glm::dot(p.centre - base, p.normal), area += p.area;
+  }
+  if (!(std::fabs(volume) > 1e-9 * area * std::sqrt(area))) return -1;
+  return volume > 0 ? 1 : 0;
+}
+
+// Gives the object's points its index, and where it is closed its side and a sphere round it.
+void enclose(PatchMesh& pm, ObjectPatches& obj, int object) {
+  for (int p = obj.point_begin; p < obj.point_end; ++p) pm.points[p].object = object;
+  if (obj.enclosed_side < 0) return;
+  dvec3 lo(INFINITY), hi(-INFINITY);
+  for (int v = obj.vertex_begin; v < obj.vertex_end; ++v) lo = glm::min(lo, pm.vertices[v]), hi = glm::max(hi, pm.vertices[v]);
+  obj.enclosure = {0.5 * (lo + hi), 0.0};
+  for (int v = obj.vertex_begin; v < obj.vertex_end; ++v)
+    obj.enclosure.radius = std::max(obj.enclosure.radius, glm::length(pm.vertices[v] - obj.enclosure.centre));
+  obj.enclosure.radius *= 1 + 1e-9;
+  for (int p = obj.point_begin; p < obj.point_end; ++p)
+    pm.points[p].enclosed_side = obj.enclosed_side, pm.points[p].enclosure = obj.enclosure;
+}
+
 // For each input face corner, the patch corner at the same place.
 std::vector<int> corner_slots(const MeshDesc& mesh, const RefinedMesh& refined, const ObjectPatches& obj) {
   std::vector<int> first_quad(mesh.face_sizes.size() + 1, 0);
@@ -276,6 +319,8 @@ void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>
   std::vector<dvec3> normals = set_geometry(pm, mesh, refined, obj);
   obj.corner_slot = corner_slots(mesh, refined, obj);
   make_points(pm, normals, 4 * obj.patch_begin, obj);
+  if (obj.patch_end > obj.patch_begin) obj.enclosed_side = enclosed_side(pm, mesh, obj);
+  enclose(pm, obj, int(pm.objects.size()));
   pm.objects.push_back(std::move(obj));
 }
 
@@ -298,6 +343,7 @@ void place_object(PatchMesh& pm, int object, const MeshDesc& mesh, const Refined
   ObjectPatches& obj = pm.objects.at(object);
   std::vector<dvec3> corner_normals = set_geometry(pm, mesh, refined, obj);
   place_points(pm, corner_normals.data(), 4 * obj.patch_begin, obj.point_begin, obj.point_end);
+  enclose(pm, obj, object);
 }
 
 }  // namespace radiosity

@@ -2,6 +2,7 @@
 // receiving points (the unknowns) at patch corners.
 #pragma once
 
+#include "bounds.h"
 #include "radiosity/scene.h"
 #include "radiosity/settings.h"
 #include "refine.h"
@@ -33,6 +34,10 @@ struct ReceiverPoint {
   // corner's own facet, which the shading normal tilts away from (a Subdivision Surface's corners:
   // 1-2% at level 2; corner_view.h). 1 on flat patches.
   std::array<double, 2> reflected_share{1.0, 1.0};
+  // Its object's, for the shots that may skip it (ObjectPatches::enclosed_side).
+  int object = -1;
+  int enclosed_side = -1;
+  Sphere enclosure;
 };
 
 struct ObjectPatches {
@@ -41,6 +46,12 @@ struct ObjectPatches {
   int vertex_begin = 0, vertex_end = 0;
   std::vector<int> face_levels;  // what it was refined with (face_levels): a moved object keeps its patches
   int degenerate = 0;     // zero-area patches
+  // A closed surface (every edge of the input mesh shared by two faces, wound alike): the side of
+  // its patches that faces its inside (0 front, 1 back), else -1; and a sphere round it. Nothing
+  // outside the sphere lights that side, nor is lit from it: gathers skip those rays
+  // (shot.cpp: gather), which its own surface would block.
+  int enclosed_side = -1;
+  Sphere enclosure;
   bool mirrored = false;  // transform flips handedness
   std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place
 };

@@ -253,6 +253,10 @@ Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibili
     stack.push_back({n.right, shot.elements[element].right});
   }
   set_frontier(shot, std::move(elements));
+  shot.object = mesh.patches[tree.order[root.begin]].object;
+  shot.enclosed_side = mesh.objects[shot.object].enclosed_side;
+  shot.enclosure = mesh.objects[shot.object].enclosure;
+  shot.bounds = {root.centroid, root.radius};
   return shot;
 }
 
@@ -383,11 +387,12 @@ template <class Factor>
 __attribute__((always_inline)) inline void far_sample(int receiver, const dvec3& x, const dvec3& n, const dvec3& centre,
                                                      const dvec3& target, const dvec3& normal, Factor&& factor,
                                                      const dvec3 radiance[2], double lift, int under_patch,
-                                                     OcclusionBatch& batch) {
+                                                     int shut, OcclusionBatch& batch) {
   dvec3 d = centre - x;
-  const dvec3& rad = radiance[glm::dot(normal, d) <= 0 ? 0 : 1];  // <= 0: x in front of the element
+  int side = glm::dot(normal, d) <= 0 ? 0 : 1;  // 0: x in front of the element
+  const dvec3& rad = radiance[side];
   double cos_r = glm::dot(n, d);
-  if (is_zero(rad) || cos_r == 0) return;
+  if (side == shut || is_zero(rad) || cos_r == 0 || !batch.open(cos_r > 0)) return;
   double f = factor();
   if (!(f > 0)) return;
   batch.to_point(receiver, x, n, target, normal, cos_r > 0, rad * f, lift, under_patch);
@@ -561,6 +566,16 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
     return e.planar && edge_on(e.centroid, e.normal, e.radius, x, n);
   };
   if (!shot.elements.empty() && seen_edge_on(shot.elements[0])) return;  // the shooter's whole cluster
+  // Closed objects (ObjectPatches::enclosed_side): the receiver's inside, when the shooter lies
+  // outside its sphere, and the shooter's inside, when the receiver does, see nothing of each
+  // other; their rays would all be blocked (2-3 of the 6 a far box's shot sent a box's point).
+  int shut = -1;
+  if (shot.object >= 0 && shot.object != point.object) {
+    if (point.enclosed_side >= 0 && !overlap(shot.bounds, point.enclosure))
+      batch.set_open(point.enclosed_side == 0 ? std::array<bool, 2>{false, true} : std::array<bool, 2>{true, false});
+    if (shot.enclosed_side >= 0 && glm::length(x - shot.enclosure.centre) > shot.enclosure.radius)
+      shut = shot.enclosed_side;
+  }
   if (shot.reflected) batch.set_share(point.reflected_share);
   // The subtree of a frontier element, one element at a time.
   auto walk = [&](int from) __attribute__((always_inline)) {
@@ -584,10 +599,11 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
           if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
             far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal,
                        [&]() __attribute__((always_inline)) { return *factor; }, sc.radiance, patch.lift,
-                       patch.under_patch, batch);
+                       patch.under_patch, shut, batch);
             continue;
           }
-          exact_cell(receiver, x, n, shot, sc, glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1, batch);
+          int side = glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1;
+          if (side != shut) exact_cell(receiver, x, n, shot, sc, side, batch);
         }
         continue;
       }
@@ -600,7 +616,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       if (far) {
         far_sample(receiver, x, n, e.centroid, e.anchor, e.normal,
                    [&]() __attribute__((always_inline)) { return cluster_form_factor(x, n, e); }, e.radiance,
-                   e.anchor_lift, e.anchor_under_patch, batch);
+                   e.anchor_lift, e.anchor_under_patch, shut, batch);
         continue;
       }
       stack[top++] = e.right;
@@ -636,6 +652,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       } else if (sends[l]) {
         const ShotElement& e = shot.elements[shot.frontier[first + l]];
         if (zone && !zone->may_cross(x, far_end(e, batch.visibility().epsilon()))) continue;
+        if ((in_front[l] ? 0 : 1) == shut || !batch.open(cos_r[l] > 0)) continue;
         if (e.anchor_under_patch >= 0)
           batch.to_point(receiver, x, n, e.anchor, e.normal, cos_r[l] > 0, lane(irradiance, l), e.anchor_lift,
                          e.anchor_under_patch);
@@ -645,6 +662,7 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
     }
   }
   batch.set_share({1.0, 1.0});
+  batch.set_open({true, true});
 }
 
 }  // namespace radiosity

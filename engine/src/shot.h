@@ -97,6 +97,13 @@ struct Shot {
   // Light that surfaces reflected (not emitted): a receiver takes its reflected_share of what
   // comes from beyond the patches it lies on.
   bool reflected = false;
+  // The shooter's object, and where that is closed the side facing its inside and its sphere
+  // (ObjectPatches::enclosed_side); a sphere round the shooter. Object -1: a lamp, or a piece of a
+  // shot that skips nothing.
+  int object = -1;
+  int enclosed_side = -1;
+  Sphere enclosure;
+  Sphere bounds;
 };
 
 // What shot samples see of their own shooter, per side: cell centre to patch corners (a bit each),

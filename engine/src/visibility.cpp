@@ -302,6 +302,7 @@ void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, c
 
 void OcclusionBatch::through(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& m, bool front,
                              const dvec3& irradiance, double lift, int under_patch) {
+  if (!open(front)) return;
   double eps = vis_.epsilon();
   dvec3 origin, dir;
   segment_ends(x, n, y, m, eps, lift, origin, dir);

@@ -196,6 +196,7 @@ class OcclusionBatch {
   // The same, for a segment whose ends segment_ends worked out (gather does so four at a time).
   __attribute__((always_inline)) void segment(int receiver, const dvec3& origin, const dvec3& dir, bool front,
                                               const dvec3& irradiance) {
+    if (!open(front)) return;
     double eps = vis_.epsilon();
     if (glm::dot(dir, dir) <= 4 * eps * eps) {  // touching: nothing fits (nor moves) in between
       if (changed_object_ < 0) sum(receiver, front) += share_[!front] * irradiance;
@@ -209,6 +210,9 @@ class OcclusionBatch {
   }
   // The part of what is sent from now on that the receivers take, per side (ReceiverPoint::reflected_share).
   void set_share(const std::array<double, 2>& share) { share_ = share; }
+  // Whether the receivers' front / back sides take what is sent from now on (shot.cpp: gather).
+  void set_open(const std::array<bool, 2>& open) { open_ = open; }
+  bool open(bool front) const { return open_[!front]; }
   // Ray from x to infinity along dir (sun, sky).
   void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
                    const dvec3& irradiance);
@@ -254,6 +258,7 @@ class OcclusionBatch {
   DbCache* db_ = nullptr;
   int first_ = 0;
   std::array<double, 2> share_{1.0, 1.0};
+  std::array<bool, 2> open_{true, true};
   RTCRay rays_[kCapacity];
   dvec3* into_[kCapacity];  // the accumulator (receiver and side) each ray adds to
   dvec3 carried_[kCapacity];

@@ -554,6 +554,44 @@ def test_faces_doubled_in_one_mesh_are_seen_once():
     assert np.abs(b - 1).max() < 2e-3, b
 
 
+def closed_objects_scene(weld):
+    """Boxes over a floor, and a closed box facing in with a glowing cube inside it. Welded, each
+    box is a closed surface (patch_mesh.h: enclosed_side); not, the same faces are open ones."""
+    scene = engine.Scene()
+    grey = scene.add_material((0.7, 0.7, 0.7))
+    glow = scene.add_material((0.5, 0.5, 0.5), (20.0, 20.0, 20.0))
+    floor = Mesh()
+    floor.add_face([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], grey)
+    ids = [floor.add_to(scene)]
+    rng = np.random.default_rng(2)
+    boxes = [Mesh() for _ in range(10)]
+    for box in boxes[:8]:
+        box.add_box((*rng.uniform(-1.6, 1.6, 2), rng.uniform(0.2, 0.8)), (0.3, 0.3, 0.3), grey, angle=rng.uniform(0, 1))
+    boxes[8].add_box((0.0, 0.0, 1.5), (0.8, 0.8, 0.8), grey, inward=True)
+    boxes[9].add_box((0.0, 0.0, 1.5), (0.1, 0.1, 0.1), glow)
+    ids += [(box.weld() if weld else box).add_to(scene, refine="bilinear") for box in boxes]
+    scene.add_sun_light((0.3, 0.2, -1.0), (3, 3, 3))
+    scene.set_world((0.1, 0.1, 0.15))
+    settings = engine.Settings.preset("draft")
+    settings.threshold = 1e-4
+    solver = engine.Solver(scene, settings)
+    stats = solver.solve()
+    return np.concatenate([solver.corner_radiance(i) for i in ids]), stats["rays"], solver.corner_radiance(ids[-2])
+
+
+def test_closed_objects_inside_and_outside_trace_no_rays_to_each_other():
+    """A closed surface's inside sees nothing beyond its sphere, nor is seen from there: gathers
+    skip those rays, which it would block. The same boxes as closed surfaces and as open ones give
+    the same light (within the 0.13% that welding moves the samples; 1e-7 against the same closed
+    boxes with every ray traced, measured), for 27% fewer rays; the glowing cube inside the box
+    facing in still lights it (its shot is within the box's sphere), and the sun does not."""
+    open_light, open_rays, open_inside = closed_objects_scene(False)
+    light, rays, inside = closed_objects_scene(True)
+    assert rays < 0.8 * open_rays
+    assert np.sqrt(np.mean((light - open_light) ** 2)) / np.mean(open_light) < 3e-3
+    assert inside.mean() > 0.3 and abs(inside.mean() / open_inside.mean() - 1) < 1e-3
+
+
 def test_catmull_clark_refines_onto_the_limit_surface():
     scene = engine.Scene()
     m = scene.add_material((0.5, 0.5, 0.5))
