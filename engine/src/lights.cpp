@@ -67,6 +67,7 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
     if (cos_r == 0) return;
     dvec3 h = lamp.color * (std::fabs(cos_r) / kPi);
     bool front = cos_r > 0;
+    if (point.enclosed_side == !front) return;  // a closed object's inside: the sun is outside it
     if (lamp.angle <= 0) {
       batch.to_infinity(receiver, x, n, to_sun, front, h);
       return;
@@ -92,6 +93,9 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
   if (falloff == 0) return;
   dvec3 h = lamp.color * (falloff * std::fabs(cos_r) / (kPi * (dist2 + lamp.radius * lamp.radius)));
   bool front = cos_r > 0;
+  if (point.enclosed_side == !front &&
+      glm::length(lamp.position - point.enclosure.centre) > point.enclosure.radius + lamp.radius)
+    return;  // a closed object's inside, and the lamp outside it
   const dvec3 no_normal(0.0);
   if (lamp.radius <= 0) {
     batch.to_point(receiver, x, n, lamp.position, no_normal, front, h);
@@ -112,6 +116,7 @@ void gather_world(const WorldMap& sky, int samples, int receiver, const Receiver
   // Cosine-weighted directions on each side: every unoccluded ray carries the sky's radiance there
   // over samples (a map's light varies slowly once its suns are lamps: the add-on's export).
   for (int side = 0; side < 2; ++side) {
+    if (side == point.enclosed_side) continue;  // a closed object's inside sees no sky
     dvec3 n = side == 0 ? point.normal : -point.normal;
     disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
       dvec3 dir = u * t + v * b + std::sqrt(std::max(0.0, 1.0 - u * u - v * v)) * n;
