@@ -6,6 +6,7 @@ build/engine (the add-on's fallback when it is not installed next to it).
 import os
 import threading
 
+import bmesh
 import bpy
 import numpy as np
 import pytest
@@ -249,6 +250,38 @@ def test_a_diverging_solve_is_an_error_and_keeps_the_colours(addon):
         bpy.ops.radiosity.bake()
     for ob in obs:
         assert np.all(colours(ob) == 0.25), ob.name
+
+
+def test_cubes_standing_in_each_other_on_a_floor_bake(addon):
+    """400 Blender cubes (0.3 m) dropped at random on a 40 m plane under the sun: some stand in each
+    other, their bottoms in the floor's plane and their tops in each other's. The coincident faces
+    were seen two or three times, and every bake failed as diverged (engine: visibility.h,
+    Coincident); now it converges, and no face is much brighter than a sunlit one."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    me = bpy.data.meshes.new("Plane")
+    me.from_pydata([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)], [], [(0, 1, 2, 3)])
+    obs = [bpy.data.objects.new("Plane", me)]
+    cube = bpy.data.meshes.new("Cube")
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=0.3)
+    bm.to_mesh(cube)
+    bm.free()
+    rng = np.random.default_rng(0)
+    for i in range(400):
+        obs.append(bpy.data.objects.new(f"Cube{i}", cube))
+        obs[-1].location = (*rng.uniform(-19, 19, 2), 0.15)
+    for ob in obs:
+        scene.collection.objects.link(ob)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    sun.data.energy = 3.0
+    scene.collection.objects.link(sun)
+    scene.radiosity.preset = 'DRAFT'
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    sunlit = 0.8 * 3.0 / np.pi
+    for ob in obs:
+        c = colours(ob)[:, :3]
+        assert np.isfinite(c).all() and c.max() < 1.1 * sunlit, (ob.name, c.max())
 
 
 def test_degenerate_face_warns(addon):
