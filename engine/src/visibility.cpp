@@ -34,6 +34,13 @@ RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatc
   return geom;
 }
 
+// Widens [lo, hi] to the object's vertices.
+void widen(const PatchMesh& mesh, int object, dvec3& lo, dvec3& hi) {
+  const ObjectPatches& obj = mesh.objects[object];
+  for (int v = obj.vertex_begin; v < obj.vertex_end; ++v)
+    lo = glm::min(lo, mesh.vertices[v]), hi = glm::max(hi, mesh.vertices[v]);
+}
+
 }  // namespace
 
 Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects,
@@ -62,6 +69,7 @@ void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
   if (object_of_geometry_.size() <= o.geometry) object_of_geometry_.resize(o.geometry + 1, -1);
   object_of_geometry_[o.geometry] = int(objects_.size() - 1);
   o.patch_begin = obj.patch_begin;
+  widen(mesh, int(objects_.size() - 1), o.lo, o.hi);
   if (!shown) {
     o.visible[0] = o.visible[1] = false;
     rtcDisableGeometry(o.instance);
@@ -118,14 +126,8 @@ void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
     object_of_geometry_[o.geometry] = object;
   }
   // Patches that lay on it, or lie on it now, are near where it was or is.
-  auto bounds = [&](dvec3& lo, dvec3& hi) {
-    const ObjectPatches& obj = mesh.objects[object];
-    for (int v = obj.vertex_begin; v < obj.vertex_end; ++v)
-      lo = glm::min(lo, mesh.vertices[v]), hi = glm::max(hi, mesh.vertices[v]);
-  };
-  dvec3 lo(INFINITY), hi(-INFINITY);
-  bounds(lo, hi);
-  lo = glm::min(lo, o.lo), hi = glm::max(hi, o.hi);
+  dvec3 lo = o.lo, hi = o.hi;
+  widen(mesh, object, lo, hi);
   int next = 1 - o.now;
   if (o.own[next]) rtcReleaseScene(o.own[next]);
   o.own[next] = new_object_scene();
@@ -144,7 +146,7 @@ void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
   rtcCommitScene(top_);
   find_coincident(mesh, lo, hi);
   o.lo = dvec3(INFINITY), o.hi = dvec3(-INFINITY);
-  bounds(o.lo, o.hi);
+  widen(mesh, object, o.lo, o.hi);
 }
 
 namespace {

@@ -122,7 +122,7 @@ class Visibility {
     RTCScene own[2] = {nullptr, nullptr};          // instanced geometry: now and before the last move
     bool visible[2] = {true, true};
     int now = 0;
-    dvec3 lo{INFINITY}, hi{-INFINITY};  // bounds where its last move left it (none before)
+    dvec3 lo{INFINITY}, hi{-INFINITY};  // its vertices' bounds as it is
     int patch_begin = 0;  // its quads' primitive ids count from here in the patch mesh
   };
   void attach(const PatchMesh& mesh, bool dynamic, bool shown);  // the mesh's next object
