@@ -220,7 +220,7 @@ void enclose(PatchMesh& pm, ObjectPatches& obj, int object) {
   for (int p = obj.point_begin; p < obj.point_end; ++p) pm.points[p].object = object;
   if (obj.enclosed_side < 0) return;
   dvec3 lo(INFINITY), hi(-INFINITY);
-  for (int v = obj.vertex_begin; v < obj.vertex_end; ++v) lo = glm::min(lo, pm.vertices[v]), hi = glm::max(hi, pm.vertices[v]);
+  widen_to(pm, obj, lo, hi);
   obj.enclosure = {0.5 * (lo + hi), 0.0};
   for (int v = obj.vertex_begin; v < obj.vertex_end; ++v)
     obj.enclosure.radius = std::max(obj.enclosure.radius, glm::length(pm.vertices[v] - obj.enclosure.centre));
@@ -261,6 +261,10 @@ std::vector<int> corner_slots(const MeshDesc& mesh, const RefinedMesh& refined, 
 }
 
 }  // namespace
+
+void widen_to(const PatchMesh& pm, const ObjectPatches& obj, dvec3& lo, dvec3& hi) {
+  for (int v = obj.vertex_begin; v < obj.vertex_end; ++v) lo = glm::min(lo, pm.vertices[v]), hi = glm::max(hi, pm.vertices[v]);
+}
 
 PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
   PatchMesh pm;

@@ -82,6 +82,8 @@ struct PatchMesh {
 };
 
 PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings);
+// Widens [lo, hi] to the object's vertices.
+void widen_to(const PatchMesh& pm, const ObjectPatches& obj, dvec3& lo, dvec3& hi);
 // Refuses (std::invalid_argument, naming the largest) `meshes` that would take `pm` past
 // Settings::max_patches; build_patch_mesh checks the whole scene before it refines anything.
 void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes, const Settings& settings);

@@ -34,13 +34,6 @@ RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatc
   return geom;
 }
 
-// Widens [lo, hi] to the object's vertices.
-void widen(const PatchMesh& mesh, int object, dvec3& lo, dvec3& hi) {
-  const ObjectPatches& obj = mesh.objects[object];
-  for (int v = obj.vertex_begin; v < obj.vertex_end; ++v)
-    lo = glm::min(lo, mesh.vertices[v]), hi = glm::max(hi, mesh.vertices[v]);
-}
-
 }  // namespace
 
 Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects,
@@ -59,6 +52,7 @@ Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_o
 void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
   Object& o = objects_.emplace_back();
   const ObjectPatches& obj = mesh.objects.at(objects_.size() - 1);
+  o.patch_begin = obj.patch_begin;  // even for none: object_of_patch searches them in order
   if (obj.patch_end == obj.patch_begin) return;
   RTCGeometry quads = make_quads(device_, mesh, obj);
   if (dynamic || !shown)
@@ -66,10 +60,8 @@ void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
   else
     o.geometry = rtcAttachGeometry(top_, quads);
   rtcReleaseGeometry(quads);
-  if (object_of_geometry_.size() <= o.geometry) object_of_geometry_.resize(o.geometry + 1, -1);
-  object_of_geometry_[o.geometry] = int(objects_.size() - 1);
-  o.patch_begin = obj.patch_begin;
-  widen(mesh, int(objects_.size() - 1), o.lo, o.hi);
+  name_geometry(o);
+  widen_to(mesh, obj, o.lo, o.hi);
   if (!shown) {
     o.visible[0] = o.visible[1] = false;
     rtcDisableGeometry(o.instance);
@@ -122,12 +114,11 @@ void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
     object_of_geometry_[o.geometry] = -1;
     make_instance(o, quads);
     rtcReleaseGeometry(quads);
-    if (object_of_geometry_.size() <= o.geometry) object_of_geometry_.resize(o.geometry + 1, -1);
-    object_of_geometry_[o.geometry] = object;
+    name_geometry(o);
   }
   // Patches that lay on it, or lie on it now, are near where it was or is.
   dvec3 lo = o.lo, hi = o.hi;
-  widen(mesh, object, lo, hi);
+  widen_to(mesh, mesh.objects[object], lo, hi);
   int next = 1 - o.now;
   if (o.own[next]) rtcReleaseScene(o.own[next]);
   o.own[next] = new_object_scene();
@@ -146,7 +137,18 @@ void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
   rtcCommitScene(top_);
   find_coincident(mesh, lo, hi);
   o.lo = dvec3(INFINITY), o.hi = dvec3(-INFINITY);
-  widen(mesh, object, o.lo, o.hi);
+  widen_to(mesh, mesh.objects[object], o.lo, o.hi);
+}
+
+void Visibility::name_geometry(const Object& o) {
+  if (object_of_geometry_.size() <= o.geometry) object_of_geometry_.resize(o.geometry + 1, -1);
+  object_of_geometry_[o.geometry] = int(&o - objects_.data());
+}
+
+int Visibility::object_of_patch(int patch) const {
+  auto after = std::upper_bound(objects_.begin(), objects_.end(), patch,
+                                [](int p, const Object& o) { return p < o.patch_begin; });
+  return int(after - objects_.begin()) - 1;
 }
 
 namespace {
@@ -221,7 +223,6 @@ void Visibility::occluded(RTCRay* rays, unsigned count, const Coincident* coinci
 
 void Visibility::find_coincident(const PatchMesh& mesh, dvec3 lo, dvec3 hi) {
   under_.resize(mesh.patches.size(), 0);
-  for (size_t q = patch_object_.size(); q < mesh.patches.size(); ++q) patch_object_.push_back(mesh.patches[q].object);
   // Each patch is probed at 3 x 3 points by a short ray through its plane, four epsilon either
   // way (as far as Coincident's zones reach): against objects of lower index, then also against
   // its own object's patches of lower index. A point only the second finds lies on its own.

@@ -96,7 +96,7 @@ class Visibility {
   // after a move for those near the object.
   bool may_lie_under(int patch) const { return under_[patch] != 0; }
   bool lies_on_own(int patch) const { return under_[patch] & kOnOwn; }
-  int object_of_patch(int patch) const { return patch_object_[patch]; }
+  int object_of_patch(int patch) const;
   // The first patch of the object whose quads are geometry `geometry` of the top-level scene (or
   // its instance), and that object.
   int object_of(unsigned geometry) const { return object_of_geometry_[geometry]; }
@@ -128,6 +128,7 @@ class Visibility {
   void attach(const PatchMesh& mesh, bool dynamic, bool shown);  // the mesh's next object
   RTCScene new_object_scene();
   void make_instance(Object& o, RTCGeometry quads);
+  void name_geometry(const Object& o);  // object_of(o.geometry) is o's index
   // may_lie_under for the patches whose bounds meet [lo, hi] (all, by default).
   void find_coincident(const PatchMesh& mesh, dvec3 lo = dvec3(-INFINITY), dvec3 hi = dvec3(INFINITY));
 
@@ -137,7 +138,6 @@ class Visibility {
   std::vector<int> object_of_geometry_;
   static constexpr char kOnOther = 1, kOnOwn = 2;
   std::vector<char> under_;        // per patch: may_lie_under, as kOnOther | kOnOwn
-  std::vector<int> patch_object_;  // per patch
   double epsilon_;
   struct Recording {
     std::mutex mutex;
