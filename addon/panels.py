@@ -71,7 +71,7 @@ def draw_settings(layout, context):
     col = layout.column(align=True)
     col.prop(props, "patch_size_relative")
     col.prop(props, "threshold")
-    col.prop(props, "relaxation")
+    col.prop(props, "relaxation", text="Relaxation (0: Auto)" if props.relaxation == 0 else "Relaxation")
     layout.prop(props, "exact_near_direct")
     layout.prop(props, "db_cache_mb")
     layout.prop(props, "max_patches")

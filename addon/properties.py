@@ -40,8 +40,9 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
         name="Threshold", default=1e-3, min=1e-8, max=1.0, precision=5, step=0.01,
         description="Stop when the unshot light falls below this fraction of the emitted light")
     relaxation: FloatProperty(
-        name="Relaxation", default=1.3, min=1.0, max=1.95, precision=2,
-        description="Over-relaxation of reflected light shots (1 = plain progressive refinement)")
+        name="Relaxation", default=0.0, min=0.0, max=1.95, precision=2,
+        description="Over-relaxation of reflected light shots: 1 = plain progressive refinement, "
+                    "0 = automatic (more where more of the light is reflected back into the scene)")
     exact_near_direct: BoolProperty(
         name="Exact Contact Light", default=True,
         description="Each corner evaluates the direct light of the surfaces right beside it where it "

@@ -66,6 +66,7 @@ py::dict stats_dict(const SolveStats& s) {
   d["patches"] = s.patches;
   d["points"] = s.points;
   d["shooters"] = s.shooters;
+  d["relaxation"] = s.relaxation;
   d["converged"] = s.converged;
   d["diverged"] = s.diverged;
   d["cancelled"] = s.cancelled;

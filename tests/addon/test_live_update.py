@@ -2,7 +2,9 @@
 
 Every comparison is against a fresh full bake of the same state, with reference.relative_rms (1%).
 Solves use the draft preset with coarser patches (patch_size_relative 1/8, 1/4 for the animated room)
-to stay quick on 2 cores: the check is that the incremental path gives what a full solve gives.
+to stay quick on 2 cores, at the default preset's threshold: the check is that the incremental path
+gives what a full solve gives, and two solves that each leave 1% of the light unshot (draft's
+threshold), each in its own places, differ by up to 1.9% RMS (frame 16 of the animated room).
 """
 import os
 import sys
@@ -37,6 +39,7 @@ def quick(scene, patch=0.125, preset='DRAFT'):
     p = scene.radiosity
     p.preset = preset
     p.patch_size_relative = patch
+    p.threshold = 1e-3
     return scene
 
 

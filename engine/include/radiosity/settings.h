@@ -22,7 +22,9 @@ struct Settings {
   // patches at rho 0.9 comes out 0.23% bright at 3, 0.10% at 4, 0.045% at 5 (+2% rays over 3).
   double near_factor = 5.0;
   double threshold = 1e-3;   // stop when unshot power / injected power falls below this
-  double relaxation = 1.3;   // over-relaxation of reflected shots (1 = plain progressive refinement)
+  // Over-relaxation of reflected shots: 1 = plain progressive refinement; 0 = automatic, from the
+  // share of their light the first shots see come back (Solver::Impl::propagate).
+  double relaxation = 0.0;
   // Reported points gather the direct light their near surroundings reflect once more, evaluated
   // where it lands rather than interpolated from patch corners (near_direct.cpp).
   bool exact_near_direct = true;

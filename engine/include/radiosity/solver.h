@@ -18,6 +18,7 @@ struct SolveStats {
   long shots = 0;            // shots so far (lamps count as one)
   long long rays = 0;        // visibility rays so far
   int patches = 0, points = 0, shooters = 0;
+  double relaxation = 1.0;   // the over-relaxation the last shots took (Settings::relaxation 0: chosen)
   long long touched_points = 0;  // last update(): receiving points whose light was recomputed
   // Last update(): rays a move changed whose whole-scene trace the dB cache spared (hits) or that
   // were traced (misses); what it holds after it (Settings::db_cache_mb).
