@@ -114,6 +114,7 @@ def finish(context, jobs, results, animation, report):
     props.last_points = int(st.get("points", 0))
     props.last_shots = int(sum(j.shots for j in jobs))
     props.last_rays = float(sum(j.rays for j in jobs))
+    props.last_relaxation = float(jobs[0].stats.get("relaxation", 0.0))
     props.last_effects = last.effects
     props.last_frames = len(jobs)
     props.has_results = True

@@ -88,6 +88,7 @@ def draw_results(layout, context):
     col.label(text=f"Residual: {props.last_residual:.2e}")
     col.label(text=f"Patches: {props.last_patches:,}   Vertices: {props.last_points:,}")
     col.label(text=f"Rays: {_human(props.last_rays)}   Shots: {props.last_shots:,}")
+    col.label(text=f"Relaxation: {props.last_relaxation:.2f}" + ("  (auto)" if props.relaxation == 0 else ""))
     box = layout.box()
     box.label(text="Effects simulated:")
     for part in _wrap(props.last_effects, 36):

@@ -75,6 +75,7 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
     last_points: IntProperty(name="Vertices", default=0)
     last_rays: FloatProperty(name="Rays", default=0.0, precision=0)   # may exceed 2^31
     last_shots: IntProperty(name="Shots", default=0)
+    last_relaxation: FloatProperty(name="Relaxation", default=0.0, precision=2)  # what the solve chose
     last_effects: StringProperty(name="Effects", default="")
     last_frames: IntProperty(name="Frames", default=0)
     last_warnings: StringProperty(name="Warnings", default="")
