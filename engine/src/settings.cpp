@@ -1,8 +1,26 @@
 #include "radiosity/settings.h"
 
+#include <cmath>
 #include <stdexcept>
 
 namespace radiosity {
+
+void Settings::validate() const {
+  auto check = [](bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument("settings: " + what);
+  };
+  check(samples_direct >= 1, "samples_direct must be at least 1");
+  check(samples_indirect >= 1, "samples_indirect must be at least 1");
+  check(patch_size_relative > 0 && patch_size_relative <= 1, "patch_size_relative must lie in (0, 1]");
+  check(shooter_size_relative > 0 && shooter_size_relative <= 1, "shooter_size_relative must lie in (0, 1]");
+  check(near_factor > 0 && std::isfinite(near_factor), "near_factor must be positive");
+  check(threshold > 0 && threshold <= 1, "threshold must lie in (0, 1]");
+  check(relaxation == 0 || (relaxation >= 1 && relaxation < 2),
+        "relaxation must be 0 (automatic) or lie in [1, 2) (2 and past it diverge)");
+  check(max_shots >= 0, "max_shots must be 0 (direct light only) or more");
+  check(max_patches >= 1, "max_patches must be at least 1");
+  check(db_cache_mb >= 0 && std::isfinite(db_cache_mb), "db_cache_mb must be 0 or more");
+}
 
 Settings Settings::preset(const std::string& name) {
   Settings s;

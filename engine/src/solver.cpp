@@ -42,6 +42,7 @@ double relaxation_for(double returned) { return 1.0 + 0.3 * std::clamp(returned,
 
 Solver::Impl::Impl(SceneDesc s, const Settings& st)
     : scene(std::move(s)), settings(st), db_cache(settings.db_cache_mb) {
+  settings.validate();
   scene.validate();
   mesh = build_patch_mesh(scene, settings);
   tree = ClusterTree::build(mesh);

@@ -277,6 +277,12 @@ def test_bad_input_raises_value_error():
         engine.Solver(scene)
     with pytest.raises(ValueError, match="preset"):
         engine.Settings.preset("ultra")
+    for knob, value in (("threshold", 0.0), ("threshold", math.nan), ("relaxation", 2.5), ("relaxation", 0.5),
+                        ("samples_indirect", 0), ("patch_size_relative", 0.0), ("db_cache_mb", -1.0)):
+        settings = engine.Settings.preset("draft")
+        setattr(settings, knob, value)
+        with pytest.raises(ValueError, match=knob):
+            engine.Solver(cornell_box()[0], settings)
     scene = engine.Scene()
     grey = scene.add_material((0.5, 0.5, 0.5))
     quad = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float64)
