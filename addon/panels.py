@@ -71,7 +71,10 @@ def draw_settings(layout, context):
     col = layout.column(align=True)
     col.prop(props, "patch_size_relative")
     col.prop(props, "threshold")
-    col.prop(props, "relaxation", text="Relaxation (0: Auto)" if props.relaxation == 0 else "Relaxation")
+    col.prop(props, "auto_relaxation")
+    row = col.row()
+    row.active = not props.auto_relaxation
+    row.prop(props, "relaxation")
     layout.prop(props, "exact_near_direct")
     layout.prop(props, "db_cache_mb")
     layout.prop(props, "max_patches")
@@ -88,7 +91,7 @@ def draw_results(layout, context):
     col.label(text=f"Residual: {props.last_residual:.2e}")
     col.label(text=f"Patches: {props.last_patches:,}   Vertices: {props.last_points:,}")
     col.label(text=f"Rays: {_human(props.last_rays)}   Shots: {props.last_shots:,}")
-    col.label(text=f"Relaxation: {props.last_relaxation:.2f}" + ("  (auto)" if props.relaxation == 0 else ""))
+    col.label(text=f"Relaxation: {props.last_relaxation:.2f}")
     box = layout.box()
     box.label(text="Effects simulated:")
     for part in _wrap(props.last_effects, 36):

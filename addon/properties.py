@@ -7,10 +7,15 @@ KNOBS = ("samples_direct", "samples_indirect", "patch_size_relative", "threshold
 
 
 def preset_values(name):
-    """Knob values of a preset: the engine's Settings are their one source."""
+    """Knob values of a preset: the engine's Settings are their one source (its relaxation 0 is
+    the Automatic Relaxation box)."""
     from .bake import load_engine
     s = load_engine().Settings.preset(name.lower())
-    return {k: getattr(s, k) for k in KNOBS}
+    values = {k: getattr(s, k) for k in KNOBS if k != "relaxation"}
+    values["auto_relaxation"] = s.relaxation == 0
+    if s.relaxation:
+        values["relaxation"] = s.relaxation
+    return values
 
 
 def _fill(self, _context):
@@ -39,10 +44,14 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
     threshold: FloatProperty(
         name="Threshold", default=1e-3, min=1e-8, max=1.0, precision=5, step=0.01,
         description="Stop when the unshot light falls below this fraction of the emitted light")
+    auto_relaxation: BoolProperty(
+        name="Automatic Relaxation", default=True,
+        description="Over-relax reflected light shots by what the first shots see come back: more "
+                    "in a closed bright room, none in an open scene (faster than any one fixed value)")
     relaxation: FloatProperty(
-        name="Relaxation", default=0.0, min=0.0, max=1.95, precision=2,
-        description="Over-relaxation of reflected light shots: 1 = plain progressive refinement, "
-                    "0 = automatic (more where more of the light is reflected back into the scene)")
+        name="Relaxation", default=1.3, min=1.0, max=1.95, precision=2,
+        description="Over-relaxation of reflected light shots when not automatic (1 = plain "
+                    "progressive refinement)")
     exact_near_direct: BoolProperty(
         name="Exact Contact Light", default=True,
         description="Each corner evaluates the direct light of the surfaces right beside it where it "

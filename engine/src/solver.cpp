@@ -38,11 +38,16 @@ constexpr double kRelaxAbove = 2.0;
 constexpr int kMeasuredShots = 8;
 double relaxation_for(double returned) { return 1.0 + 0.3 * std::clamp(returned, 0.0, 1.0); }
 
+// Checked before any member is built from them (the dB cache sizes itself from db_cache_mb).
+const Settings& validated(const Settings& s) {
+  s.validate();
+  return s;
+}
+
 }  // namespace
 
 Solver::Impl::Impl(SceneDesc s, const Settings& st)
-    : scene(std::move(s)), settings(st), db_cache(settings.db_cache_mb) {
-  settings.validate();
+    : scene(std::move(s)), settings(validated(st)), db_cache(settings.db_cache_mb) {
   scene.validate();
   mesh = build_patch_mesh(scene, settings);
   tree = ClusterTree::build(mesh);
@@ -223,7 +228,8 @@ int Solver::Impl::far_samples(double power, Sampling sampling) const {
 // in each shooter, for more shots: 27 an update in the 10k room against 16 (draft), as close to a
 // fresh solve (0.19% RMS against 0.22%).
 double Solver::Impl::relaxation(Sampling sampling, double residual) const {
-  return sampling == Sampling::full && residual < kRelaxAbove * settings.threshold ? 1.0 : settings.relaxation;
+  if (sampling == Sampling::full && residual < kRelaxAbove * settings.threshold) return 1.0;
+  return settings.relaxation > 0 ? settings.relaxation : measured_relaxation;
 }
 
 bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, double omega) {
@@ -291,7 +297,11 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     if (limit == 0) limit = kDiverged * std::max(1.0, stats.residual);
     if (omega == 0) {
       omega = relaxation(sampling, stats.residual);
-      if (omega == 0) omega = 1.0, measuring = kMeasuredShots;
+      if (omega == 0) {
+        omega = 1.0;
+        measuring = kMeasuredShots;
+      }
+      stats.relaxation = omega;
     }
     if (!(stats.residual <= limit)) {
       stats.diverged = true;
@@ -319,9 +329,8 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     if (measuring > 0) {
       sent += shooting;
       returned += std::accumulate(power.begin(), power.end(), 0.0) - (total - shooting);
-      if (--measuring == 0) omega = relaxation_for(returned / sent);
+      if (--measuring == 0) omega = stats.relaxation = measured_relaxation = relaxation_for(returned / sent);
     }
-    stats.relaxation = omega;
   }
   stats.cancelled = cancel_requested.load();
   if (progress && !stats.cancelled) progress(1.0, stats.residual);

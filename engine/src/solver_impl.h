@@ -60,6 +60,10 @@ struct Solver::Impl {
   bool injected = false;
   double injected_power = 0.0;
   double reference_power = 0.0;  // unshot power right after injection: the residual's scale
+  // Settings::relaxation 0: what the first solve's first shots measured (0: not yet). Kept for the
+  // updates and a resumed solve: an update given one frame's time of shooting may end before eight
+  // shots, and what updates send is signed, which the measure (of |unshot|) would read as absorbed.
+  double measured_relaxation = 0.0;
   std::atomic<bool> cancel_requested{false};
   SolveStats stats;
 
@@ -126,7 +130,8 @@ struct Solver::Impl {
   // always samples_indirect (an update).
   enum class Sampling { by_power, full };
   int far_samples(double power, Sampling sampling) const;  // for a shot of shooter power `power`
-  // The omega shots send their unshot light with, when shooting starts from `residual`.
+  // The omega shots send their unshot light with, when shooting starts from `residual`; 0: to be
+  // measured (propagate).
   double relaxation(Sampling sampling, double residual) const;
   // power: shooter_power() after the shot
   bool shoot(int s, std::vector<double>& power, Sampling sampling, double omega);

@@ -195,15 +195,17 @@ def test_a_scene_past_the_patch_limit_is_reported_and_keeps_its_colours(addon):
     np.testing.assert_array_equal(colours(ob), before)
 
 
-def test_a_relaxation_out_of_range_is_reported_and_keeps_the_colours(addon):
-    # The property runs from 0 (automatic) up, so that 0 can be typed; under 1 the engine refuses.
+def test_relaxation_is_automatic_unless_set_and_presets_make_it_automatic(addon):
     scene, ob = empty_with_plane()
+    p = scene.radiosity
+    assert p.auto_relaxation
+    p.auto_relaxation, p.relaxation = False, 1.5
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
-    before = colours(ob).copy()
-    scene.radiosity.relaxation = 0.5
-    with pytest.raises(RuntimeError, match="relaxation must be 0 \\(automatic\\) or lie in \\[1, 2\\)"):
-        bpy.ops.radiosity.bake()
-    np.testing.assert_array_equal(colours(ob), before)
+    assert p.last_relaxation == pytest.approx(1.5)
+    p.preset = 'HIGH'
+    assert p.auto_relaxation and p.relaxation == pytest.approx(1.5)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    assert p.last_relaxation != pytest.approx(1.5)
 
 
 def test_no_lights_is_reported(addon):

@@ -453,9 +453,12 @@ def test_a_smooth_mesh_whose_faces_disagree_on_the_front_stays_finite(level):
     assert stats["converged"] and stats["residual"] <= settings.threshold
     radiance = solver.corner_radiance(obj)
     assert np.isfinite(radiance).all() and (radiance >= 0).all()
-    # The lamp lights the faces' back sides; their fronts take only what the backs send round, which
-    # the threshold may leave unshot (all of it at level 1 without over-relaxation).
-    assert solver.power_balance()["absorbed"] > 0.4 * solver.power_balance()["injected"]
+    # The lamp lights the faces' back sides, which corner_radiance does not show; a runaway solve
+    # shows in the balance: light held and absorbed past what landed, or not finite.
+    balance = solver.power_balance()
+    assert all(math.isfinite(v) for v in balance.values())
+    assert 0 <= balance["unshot"] <= settings.threshold * balance["injected"]
+    assert 0.45 * balance["injected"] < balance["absorbed"] <= balance["injected"]
 
 
 def test_a_solve_that_diverges_stops_and_says_so():
@@ -653,7 +656,9 @@ def test_automatic_relaxation_follows_the_light_the_scene_sends_back():
             mesh.add_face([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], m)
             scene.add_point_light((0, 0, 1), (10.0,) * 3, 0.05)
         mesh.add_to(scene, refine="bilinear")
-        chosen[name] = engine.Solver(scene, engine.Settings.preset("draft")).solve()["relaxation"]
+        stats = engine.Solver(scene, engine.Settings.preset("draft")).solve()
+        chosen[name] = stats["relaxation"]
+        assert stats["shots"] > 8  # past the measuring shots
     assert 1.26 < chosen["furnace"] < 1.28 and chosen["floor"] == 1.0
     # The Cornell box at draft: fewer shots than at 1.0 or 1.3 (606, 645; automatic 1.21: 512), to
     # the same light within the threshold's reach.
@@ -667,6 +672,11 @@ def test_automatic_relaxation_follows_the_light_the_scene_sends_back():
         assert stats["converged"]
         shots[relaxation], light[relaxation] = stats["shots"], solver.refined(ids[0])[1]
         chosen[relaxation] = stats["relaxation"]
+        if relaxation == 0.0:
+            # An update that lights the scene anew shoots on at the solve's value: it may be given
+            # too little time to measure its own, and its signed light would read as absorbed.
+            solver.set_material(3, (0.78,) * 3, (7.5,) * 3)  # the ceiling lamp at half
+            assert solver.update()["relaxation"] == chosen[0.0]
     assert 1.18 < chosen[0.0] < 1.24
     assert shots[0.0] < 0.9 * min(shots[1.0], shots[1.3])
     assert np.abs(light[0.0].mean(0) / light[1.0].mean(0) - 1).max() < 0.03
