@@ -187,7 +187,6 @@ void Solver::Impl::restart() {
   std::fill(shot.begin(), shot.end(), none);
   injected = false;
   injected_power = reference_power = 0.0;
-  measured_relaxation = 0.0;
 }
 
 // A fresh solve measures its residual against the direct light that lands; when the lamps, world

@@ -60,10 +60,6 @@ struct Solver::Impl {
   bool injected = false;
   double injected_power = 0.0;
   double reference_power = 0.0;  // unshot power right after injection: the residual's scale
-  // Settings::relaxation 0: what the first solve's first shots measured (0: not yet). Kept for the
-  // updates and a resumed solve: an update given one frame's time of shooting may end before eight
-  // shots, and what updates send is signed, which the measure (of |unshot|) would read as absorbed.
-  double measured_relaxation = 0.0;
   std::atomic<bool> cancel_requested{false};
   SolveStats stats;
 

@@ -672,11 +672,6 @@ def test_automatic_relaxation_follows_the_light_the_scene_sends_back():
         assert stats["converged"]
         shots[relaxation], light[relaxation] = stats["shots"], solver.refined(ids[0])[1]
         chosen[relaxation] = stats["relaxation"]
-        if relaxation == 0.0:
-            # An update that lights the scene anew shoots on at the solve's value: it may be given
-            # too little time to measure its own, and its signed light would read as absorbed.
-            solver.set_material(3, (0.78,) * 3, (7.5,) * 3)  # the ceiling lamp at half
-            assert solver.update()["relaxation"] == chosen[0.0]
     assert 1.18 < chosen[0.0] < 1.24
     assert shots[0.0] < 0.9 * min(shots[1.0], shots[1.3])
     assert np.abs(light[0.0].mean(0) / light[1.0].mean(0) - 1).max() < 0.03
