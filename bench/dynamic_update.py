@@ -5,7 +5,7 @@
 preset: draft (default) | default | high; frames: frames played per scene (default 8);
 full_repeats: full re-solves timed per scene (default 2); scenes: comma-separated names (all);
 db_cache_mb: the dB cache's cap (the add-on's default; 0 = no cache); playbacks: runs of the
-playback below (default 3). Scenes:
+playback below (default 3; 0 skips it). Scenes:
 
   animated_room  the sample: a box moves and the point lamp ramps 30 W -> 120 W every frame
   room_20k       a 4 m room of ~20k vertices, one 0.4 m box moving across the floor, lamp fixed
@@ -243,7 +243,7 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     playing = live.playing
     plays = [play_back(scene) for _ in range(PLAYBACKS)]
     live.playing = playing
-    playback = {k: med([p[k] for p in plays]) for k in plays[0]}
+    playback = {k: med([p[k] for p in plays]) for k in plays[0]} if plays else None
     # full re-solves of frames just played (same export, a new Solver)
     full = []
     for f in todo[-full_repeats:]:
@@ -293,20 +293,21 @@ def main():
     table(f"{'scene':14} {'way':8} {'cpu s':>7} {'rays':>10} {'changed':>9} {'hits':>9} {'hit %':>6} {'cache MB':>8}",
           [f"{r['scene']:14} {way:8} {d['cpu']:7.3f} {d['rays']:10.0f} {d['changed']:9.0f} {d['hits']:9.0f} "
            f"{100 * d['hits'] / max(1, d['changed']):6.1f} {r['db_mb']:8.2f}" for r in rows for way, d in r["db"].items()])
-    print(f"playback ({PLAYBACKS} runs of the frame range, medians)")
-    table(f"{'scene':14} {'fps':>5} {'of':>4} {'main ms':>8} {'max ms':>7} {'updates':>7} {'frames/upd':>10} "
-          f"{'residual':>8} {'rms playing':>11} {'own frame':>9} {'rms settled':>11} {'settle s':>8}",
-          [f"{r['scene']:14} {p['fps']:5.1f} {r['fps']:4.0f} {1000 * p['main']:8.1f} {1000 * p['main_max']:7.1f} "
-           f"{p['updates']:7.0f} {p['span']:10.1f} {100 * p['residual']:7.2f}% {100 * p['playing']:10.3f}% "
-           f"{100 * p['own']:8.3f}% {100 * p['settled']:10.3f}% {p['settle']:8.3f}"
-           for r in rows for p in [r["playback"]]])
+    if PLAYBACKS:
+        print(f"playback ({PLAYBACKS} runs of the frame range, medians)")
+        table(f"{'scene':14} {'fps':>5} {'of':>4} {'main ms':>8} {'max ms':>7} {'updates':>7} {'frames/upd':>10} "
+              f"{'residual':>8} {'rms playing':>11} {'own frame':>9} {'rms settled':>11} {'settle s':>8}",
+              [f"{r['scene']:14} {p['fps']:5.1f} {r['fps']:4.0f} {1000 * p['main']:8.1f} {1000 * p['main_max']:7.1f} "
+               f"{p['updates']:7.0f} {p['span']:10.1f} {100 * p['residual']:7.2f}% {100 * p['playing']:10.3f}% "
+               f"{100 * p['own']:8.3f}% {100 * p['settled']:10.3f}% {p['settle']:8.3f}"
+               for r in rows for p in [r["playback"]]])
     print("full s: new Solver + solve() of a played frame; update s: Solver.update() of a frame change;")
     print("ratio = full / update (goal 50); touched: receiving points the update recomputed (engine's")
     print("touched_points / points); live s: export + diff + update + colours + write-back;")
     print("frame s: scene.frame_set() wall time with live update on (what playback waits for);")
     print("baked fps: playback after Bake Animation of the same frames (stored colours written back).")
     for r in rows:
-        if r["scene"] == "room_10k":
+        if r["scene"] == "room_10k" and PLAYBACKS:
             verdict = "yes" if r["frame"] <= 1 / 24 else "no"
             print(f"24 fps with write-back at ~10k vertices ({r['vertices']} vertices, {r['points']} points): "
                   f"live update {verdict} ({1 / r['frame']:.1f} fps, {1000 * r['frame']:.0f} ms a frame); "
