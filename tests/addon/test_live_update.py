@@ -325,6 +325,45 @@ def test_edits_update_and_match_fresh_bake(addon):
     assert err < BOUND
 
 
+def test_viewport_edits_run_in_a_worker_and_settle_when_they_stop(addon, monkeypatch):
+    """An edit from the UI (the depsgraph handler's timer, _flush) never waits for the engine: its
+    update runs in a worker thread with a frame's time of shooting (none here), as playback's do.
+    While edits keep coming the rest waits; once they stop it is shot to the threshold, and the
+    colours are a fresh bake's."""
+    live = addon.live_update
+    scene = edit_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    threshold = scene.radiosity.threshold
+    monkeypatch.setattr(live, "frame_budget", lambda scene: 0.0)
+    monkeypatch.setattr(live, "editing", lambda: True)
+    box = scene.objects["Box"]
+    before = read(scene)
+    for x in (0.3, 0.6, 0.9):                             # a drag, three steps of it
+        with live.suspended():                            # in background mode the handler would solve
+            box.location.x = x
+            bpy.context.view_layer.update()
+        live._pending.add(scene.name)
+        live._flush()                                     # what the UI's timer does after the edit
+        assert scene.name in live.playback                # the UI did not wait for the engine
+        info = live.finish(scene)                         # what the next edit does once it has ended
+        assert (info["mode"], info["budgeted"], info["shots"]) == ("incremental", True, 0), info
+        assert not info["converged"] and info["residual"] > threshold
+    assert live._watch() == live.WATCH_INTERVAL          # edits keep coming: nothing shot yet
+    assert live.last_sync[scene.name]["shots"] == 0
+    monkeypatch.setattr(live, "editing", lambda: False)
+    assert live._watch() is None                          # they stopped: shot to the threshold
+    info = live.last_sync[scene.name]
+    assert (info["mode"], info["budgeted"]) == ("incremental", False)
+    assert info["converged"] and info["residual"] <= threshold and info["shots"] > 0
+    settled = read(scene)
+    check_finite(settled)
+    assert changed(settled, before)
+    err = relative_rms(stacked(settled), stacked(fresh_bake(scene)))
+    print(f"three budgeted edits, settled, vs fresh bake: {100 * err:.3f}% RMS")
+    assert err < BOUND
+
+
 def test_added_objects_lamps_and_topology_changes_are_incremental(addon):
     live = addon.live_update
     scene = edit_scene()
