@@ -21,8 +21,10 @@
   interpolated: Exact Contact Light is read on the settle). Waiting instead would not keep up
   however small the budget: a 10k-vertex room's update spends about six frames' time (24 fps) in the
   move's gathers, which cannot be cut short, before its first shot. When playback stops (_watch),
-  the rest is shot to the threshold: the colours are a full update's. Scripts' frame_set and
-  background mode converge every frame (sync()).
+  the rest is shot to the threshold, in the worker as well: the colours are a full update's. The
+  main thread only exports, diffs and writes; the worker also reads the colours (with the exact
+  contact light, seconds at 10k). Scripts' frame_set and background mode converge every frame
+  (sync()).
 - Edits in the viewport (an object dragged, a slider moved) take the same path: waiting for each
   would freeze the UI for the whole update at every step of a drag (0.8 s in a 20k-vertex room,
   draft). Once edits have stopped for EDIT_QUIET seconds, _watch shoots the rest to the threshold.
@@ -259,15 +261,23 @@ def _begin(scene, depsgraph, frame_change=False):
 
 
 def _solve(job, info, budget=None):
-    """Any thread: no Blender data."""
+    """Any thread: no Blender data. The colours are read here too, for _end to write: with the exact
+    contact light (budget None) a 10k room's read took 1.5-6.6 s (draft, load 6), longer than its
+    update (0.5-0.9 s), and the main thread would wait for it."""
     try:
         job.solve(budget=budget)
+        if job.succeeded:
+            t = time.perf_counter()
+            # Playing or editing, the exact contact light is left for the settle.
+            info["colours"] = job.colours(exact_near_direct=job.budget is None)
+            info["seconds_colours"] = time.perf_counter() - t
     except Exception as e:   # noqa: BLE001 -- never break playback or editing
         info.update(mode="error", reason=str(e))
 
 
 def _end(scene, job, base, info):
     """After _solve (main thread): keep the job's Solver, write its colours; the info to record."""
+    colours = info.pop("colours", None)
     if info["mode"] == "error":
         print("Radiosity: live update failed:", info["reason"])
         return info
@@ -279,9 +289,6 @@ def _end(scene, job, base, info):
         return info
     live_jobs[scene.name] = job
     t2 = time.perf_counter()
-    # Playing, the exact contact light is left for the settle: read after an update of a 10k room
-    # it took 1.5-6.6 s (draft with it on, load 6), the updates themselves 0.5-0.9 s.
-    colours = job.colours(exact_near_direct=job.budget is None)
     written, _messages = write(scene, colours)
     t3 = time.perf_counter()
     st = job.stats
@@ -334,20 +341,23 @@ def sync(scene, depsgraph=None, frame_change=False):
         _state["busy"] = False
 
 
-def play(scene, depsgraph=None, frame_change=False):
-    """Playback's and the UI's edits' step (see the module's notes): never waits for the engine. None
-    while an update runs."""
+def play(scene, depsgraph=None, frame_change=False, settle=False):
+    """Playback's and the UI's edits' step (see the module's notes): never waits for the engine.
+    `settle`: shoot to the threshold (_watch). Whether it started an update: not while one runs,
+    nor when nothing changed and the last one converged."""
     running = playback.get(scene.name)
     if running is not None and running[0].is_alive():
-        return None
+        return False
     finish(scene)
     _state["busy"] = True
     try:
         job, base, info = _begin(scene, depsgraph, frame_change)
         if job is None:
-            return _record(scene, info)
+            if not (settle and info["mode"] == "unchanged"):  # a settle's result stays the last recorded
+                _record(scene, info)
+            return False
         # A new Solver's first solve is not cut short: its first shots carry most of the light.
-        budget = frame_budget(scene) if job.incremental else None
+        budget = frame_budget(scene) if job.incremental and not settle else None
         thread = threading.Thread(target=_solve, args=(job, info, budget), daemon=True)
         playback[scene.name] = (thread, job, base, info)
         thread.start()
@@ -355,7 +365,7 @@ def play(scene, depsgraph=None, frame_change=False):
         _state["busy"] = False
     if not bpy.app.timers.is_registered(_watch):
         bpy.app.timers.register(_watch, first_interval=WATCH_INTERVAL)
-    return None
+    return True
 
 
 WATCH_INTERVAL = 0.1   # seconds between checks whether playback or editing stopped
@@ -363,20 +373,23 @@ EDIT_QUIET = 0.3       # seconds without an edit after which editing counts as s
 
 
 def _watch():
-    """Timer: once playback or editing stops, the scene is shot to the threshold (its last update
-    finished first)."""
+    """Timer: once playback or editing stops, the scene as it is then is shot to the threshold, in
+    the worker too (the update that ran is written first); polled until one ends with nothing left."""
     if playing() or editing():
         return WATCH_INTERVAL
     scene = bpy.context.scene
-    job = live_jobs.get(scene.name) if scene is not None else None
-    if scene is not None and (scene.name in playback or (job is not None and job.out_of_budget)):
-        if rendering() or blocked():
-            return WATCH_INTERVAL
-        if scene.radiosity.live_update:
-            sync(scene)
-        else:
-            finish(scene)
-    return None
+    if scene is None:
+        return None
+    running = playback.get(scene.name)
+    if (running is not None and running[0].is_alive()) or rendering() or blocked():
+        return WATCH_INTERVAL
+    info = finish(scene)                                  # the update that ran, written
+    job = live_jobs.get(scene.name)
+    if info is None and (job is None or not job.out_of_budget):
+        return None                                       # nothing ran, nothing left to shoot
+    if not scene.radiosity.live_update or (info is not None and info["mode"] == "error"):
+        return None
+    return WATCH_INTERVAL if play(scene, settle=True) else None
 
 
 def _served_from_cache(scene):

@@ -29,7 +29,9 @@ time (what the viewport waits for), "frames/update" how many frames an update sp
 median residual its colours were written at; "rms playing" compares the colours shown on the last
 frame with a fresh solve of it (they are some frames behind), "own frame" with a fresh solve of the
 frame they were solved for (the residual's share), "rms settled" the colours after playback stopped
-(live_update._watch) and the rest was shot to the threshold, which took "settle s".
+(live_update._watch) and the rest was shot to the threshold in the worker, which took "settle s"
+(wall time until written, polled every live_update.WATCH_INTERVAL as the timer polls), of which
+the longest timer call held the main thread "held ms" (export, diff, write-back).
 """
 import os
 import statistics
@@ -194,12 +196,20 @@ def play_back(scene):
     own = relative_rms(shown(scene, names), fresh_solve(scene, written[-1]["frame"])[1])
     live.playing = lambda: False
     t = time.perf_counter()
-    live._watch()
+    watch = []                                      # the main thread's time in each timer call
+    while True:                                     # the settle runs in the worker: as the timer polls
+        w = time.perf_counter()
+        more = live._watch()
+        watch.append(time.perf_counter() - w)
+        if more is None:
+            break
+        time.sleep(live.WATCH_INTERVAL)
     settle = time.perf_counter() - t
     assert live.last_sync[scene.name]["converged"]
     return dict(fps=len(main) / seconds, main=med(main), main_max=max(main), updates=len(written),
                 span=len(main) / max(1, len(written)), residual=med([i["residual"] for i in written]),
-                playing=playing, own=own, settled=relative_rms(shown(scene, names), reference), settle=settle)
+                playing=playing, own=own, settled=relative_rms(shown(scene, names), reference), settle=settle,
+                settle_main=max(watch))
 
 
 def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
@@ -296,10 +306,10 @@ def main():
     if PLAYBACKS:
         print(f"playback ({PLAYBACKS} runs of the frame range, medians)")
         table(f"{'scene':14} {'fps':>5} {'of':>4} {'main ms':>8} {'max ms':>7} {'updates':>7} {'frames/upd':>10} "
-              f"{'residual':>8} {'rms playing':>11} {'own frame':>9} {'rms settled':>11} {'settle s':>8}",
+              f"{'residual':>8} {'rms playing':>11} {'own frame':>9} {'rms settled':>11} {'settle s':>8} {'held ms':>7}",
               [f"{r['scene']:14} {p['fps']:5.1f} {r['fps']:4.0f} {1000 * p['main']:8.1f} {1000 * p['main_max']:7.1f} "
                f"{p['updates']:7.0f} {p['span']:10.1f} {100 * p['residual']:7.2f}% {100 * p['playing']:10.3f}% "
-               f"{100 * p['own']:8.3f}% {100 * p['settled']:10.3f}% {p['settle']:8.3f}"
+               f"{100 * p['own']:8.3f}% {100 * p['settled']:10.3f}% {p['settle']:8.3f} {1000 * p['settle_main']:7.1f}"
                for r in rows for p in [r["playback"]]])
     print("full s: new Solver + solve() of a played frame; update s: Solver.update() of a frame change;")
     print("ratio = full / update (goal 50); touched: receiving points the update recomputed (engine's")

@@ -74,6 +74,16 @@ def fresh_bake(scene):
     return out
 
 
+def settle(live, scene):
+    """What _watch's timer does once playback or editing stops, until it stops itself: the settle
+    runs in the worker, joined here between calls. Whether _watch started one."""
+    started = False
+    while live._watch() is not None:
+        started = True
+        live.playback[scene.name][0].join()
+    return started
+
+
 def check_finite(colours):
     for name, v in colours.items():
         assert v is not None, name
@@ -276,7 +286,7 @@ def test_playback_shoots_on_a_budget_and_settles_when_it_stops(addon, monkeypatc
     playing = read(scene)
 
     monkeypatch.setattr(live, "playing", lambda: False)
-    assert live._watch() is None                      # playback stopped: shot to the threshold
+    assert settle(live, scene)                        # playback stopped: shot to the threshold
     info = live.last_sync[scene.name]
     assert (info["frame"], info["mode"], info["budgeted"]) == (9, "incremental", False)
     assert info["converged"] and info["residual"] <= threshold and info["shots"] > 0
@@ -328,12 +338,16 @@ def test_edits_update_and_match_fresh_bake(addon):
 def test_viewport_edits_run_in_a_worker_and_settle_when_they_stop(addon, monkeypatch):
     """An edit from the UI (the depsgraph handler's timer, _flush) never waits for the engine: its
     update runs in a worker thread with a frame's time of shooting (none here), as playback's do.
-    While edits keep coming the rest waits; once they stop it is shot to the threshold, and the
-    colours are a fresh bake's."""
+    While edits keep coming the rest waits; once they stop it is shot to the threshold, in the
+    worker too, and the colours are a fresh bake's. The colours are read in the worker as well."""
     live = addon.live_update
     scene = edit_scene()
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
     scene.radiosity.live_update = True
+    on_main = []                                          # per colour read: on the main thread?
+    colours = addon.bake.BakeJob.colours
+    monkeypatch.setattr(addon.bake.BakeJob, "colours", lambda job, *args, **kwargs: (
+        on_main.append(threading.current_thread() is threading.main_thread()), colours(job, *args, **kwargs))[1])
     threshold = scene.radiosity.threshold
     monkeypatch.setattr(live, "frame_budget", lambda scene: 0.0)
     monkeypatch.setattr(live, "editing", lambda: True)
@@ -352,10 +366,11 @@ def test_viewport_edits_run_in_a_worker_and_settle_when_they_stop(addon, monkeyp
     assert live._watch() == live.WATCH_INTERVAL          # edits keep coming: nothing shot yet
     assert live.last_sync[scene.name]["shots"] == 0
     monkeypatch.setattr(live, "editing", lambda: False)
-    assert live._watch() is None                          # they stopped: shot to the threshold
+    assert settle(live, scene)                            # they stopped: shot to the threshold
     info = live.last_sync[scene.name]
     assert (info["mode"], info["budgeted"]) == ("incremental", False)
     assert info["converged"] and info["residual"] <= threshold and info["shots"] > 0
+    assert len(on_main) == 4 and not any(on_main)        # three edits and the settle
     settled = read(scene)
     check_finite(settled)
     assert changed(settled, before)
