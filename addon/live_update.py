@@ -267,10 +267,8 @@ def _solve(job, info, budget=None):
     try:
         job.solve(budget=budget)
         if job.succeeded:
-            t = time.perf_counter()
             # Playing or editing, the exact contact light is left for the settle.
             info["colours"] = job.colours(exact_near_direct=job.budget is None)
-            info["seconds_colours"] = time.perf_counter() - t
     except Exception as e:   # noqa: BLE001 -- never break playback or editing
         info.update(mode="error", reason=str(e))
 
