@@ -57,49 +57,79 @@ void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined
   }
 }
 
-// Places an object's vertices and patches from its refinement and transform; returns the corner
-// normals (4 per patch, the object's patches in order) that receiving points take.
-std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined,
-                                ObjectPatches& obj) {
-  for (size_t i = 0; i < refined.positions.size(); ++i)
-    pm.vertices[obj.vertex_begin + i] = transform_point(mesh.transform, refined.positions[i]) - pm.origin;
+// A patch's area and unit normal from its corners (half the cross product of its diagonals: exact
+// for a planar quad); both zero where it is degenerate.
+struct Facet {
+  double area = 0.0;
+  dvec3 normal{0.0};
+};
+Facet facet(const PatchMesh& pm, const dvec3& p0, const dvec3& p1, const dvec3& p2, const dvec3& p3) {
+  dvec3 va = 0.5 * glm::cross(p2 - p0, p3 - p1);
+  double area = glm::length(va);
+  if (!(area > 1e-14 * pm.diagonal * pm.diagonal)) return {};
+  return {area, va / area};
+}
+
+// The refined vertices where the transform puts them, in the mesh's frame (relative to its origin).
+std::vector<dvec3> placed(const PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined) {
+  std::vector<dvec3> at(refined.positions.size());
+  for (size_t i = 0; i < at.size(); ++i) at[i] = transform_point(mesh.transform, refined.positions[i]) - pm.origin;
+  return at;
+}
+
+// Whether patch `q` of the object takes shading normals at its corners (a smooth face, not degenerate).
+bool shaded_smooth(const MeshDesc& mesh, const RefinedMesh& refined, const ObjectPatches& obj, int q, double area) {
+  return !refined.normals.empty() && area > 0 && mesh.smooth(refined.quad_face[q - obj.patch_begin]);
+}
+
+// The normals the corners of an object's patches take (4 per patch, its patches in order), its
+// vertices lying at `at` (in its order): the patch's own, or on a smooth face the shading normal.
+std::vector<dvec3> corner_normals(const PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined,
+                                  const ObjectPatches& obj, const dvec3* at) {
   glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(mesh.transform)));
-  pm.degenerate_patches -= obj.degenerate;
-  obj.degenerate = 0;
-  std::vector<dvec3> corner_normals;
-  corner_normals.reserve(4 * (obj.patch_end - obj.patch_begin));
+  std::vector<dvec3> normals;
+  normals.reserve(4 * (obj.patch_end - obj.patch_begin));
   for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
-    Patch& patch = pm.patches[q];
-    const dvec3* p[4];
-    for (int c = 0; c < 4; ++c) p[c] = &pm.vertices[patch.vertex[c]];
-    dvec3 va = 0.5 * glm::cross(*p[2] - *p[0], *p[3] - *p[1]);
-    patch.area = glm::length(va);
-    patch.centre = 0.25 * (*p[0] + *p[1] + *p[2] + *p[3]);
-    patch.normal = dvec3(0.0);
-    if (!(patch.area > 1e-14 * pm.diagonal * pm.diagonal)) {
-      patch.area = 0.0;
-      ++obj.degenerate;
-    } else {
-      patch.normal = va / patch.area;
-    }
-    bool smooth = !refined.normals.empty() && patch.area > 0 && mesh.smooth(refined.quad_face[q - obj.patch_begin]);
-    dvec3 normals[4];
+    const Patch& patch = pm.patches[q];
+    int v[4];
+    for (int c = 0; c < 4; ++c) v[c] = patch.vertex[c] - obj.vertex_begin;
+    Facet f = facet(pm, at[v[0]], at[v[1]], at[v[2]], at[v[3]]);
+    bool smooth = shaded_smooth(mesh, refined, obj, q, f.area);
     for (int c = 0; c < 4; ++c) {
-      dvec3 n = patch.normal;
+      dvec3 n = f.normal;
       if (smooth) {
-        dvec3 shading = normal_matrix * refined.normals[patch.vertex[c] - obj.vertex_begin];
+        dvec3 shading = normal_matrix * refined.normals[v[c]];
         if (glm::length(shading) > 0) n = glm::normalize(shading);
       }
-      corner_normals.push_back(normals[c] = n);
-    }
-    patch.interior_share = 1.0;
-    if (smooth) {
-      dvec3 corners[4] = {*p[0], *p[1], *p[2], *p[3]};
-      patch.interior_share = interior_share(corners, normals);
+      normals.push_back(n);
     }
   }
+  return normals;
+}
+
+// Places an object's vertices and patches from its refinement and transform; returns the corner
+// normals (corner_normals) that receiving points take.
+std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined,
+                                ObjectPatches& obj) {
+  std::vector<dvec3> at = placed(pm, mesh, refined);
+  std::copy(at.begin(), at.end(), pm.vertices.begin() + obj.vertex_begin);
+  std::vector<dvec3> normals = corner_normals(pm, mesh, refined, obj, &pm.vertices[obj.vertex_begin]);
+  pm.degenerate_patches -= obj.degenerate;
+  obj.degenerate = 0;
+  for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
+    Patch& patch = pm.patches[q];
+    dvec3 corners[4];
+    for (int c = 0; c < 4; ++c) corners[c] = pm.vertices[patch.vertex[c]];
+    Facet f = facet(pm, corners[0], corners[1], corners[2], corners[3]);
+    patch.area = f.area;
+    patch.normal = f.normal;
+    patch.centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+    if (f.area == 0) ++obj.degenerate;
+    patch.interior_share =
+        shaded_smooth(mesh, refined, obj, q, f.area) ? interior_share(corners, &normals[4 * (q - obj.patch_begin)]) : 1.0;
+  }
   pm.degenerate_patches += obj.degenerate;
-  return corner_normals;
+  return normals;
 }
 
 // Puts points [begin, end) at their vertices, facing the way their first corner faces, nudged
@@ -340,6 +370,22 @@ RefinedMesh refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh)
       int(refined.quads.size()) != obj.patch_end - obj.patch_begin || mirrored != obj.mirrored)
     throw std::invalid_argument("object '" + mesh.name +
                                 "': its topology or handedness changed; it must be added anew");
+  // A receiving point holds the corners that met at its vertex facing one way (make_points), and
+  // keeps them: a deformation that turns one of them away (a flat floor bent into a crease) would
+  // leave it gathering for the wrong normal.
+  std::vector<dvec3> at = placed(pm, mesh, refined);
+  std::vector<dvec3> normals = corner_normals(pm, mesh, refined, obj, at.data());
+  int first_slot = 4 * obj.patch_begin;
+  for (int p = obj.point_begin; p < obj.point_end; ++p) {
+    const dvec3& facing = normals[pm.point_slots[pm.point_slot_begin[p]] - first_slot];
+    for (int i = pm.point_slot_begin[p] + 1; i < pm.point_slot_begin[p + 1]; ++i) {
+      const dvec3& n = normals[pm.point_slots[i] - first_slot];
+      if (glm::length(n) > 0 && !(glm::dot(facing, n) > kSameNormal))
+        throw std::invalid_argument("object '" + mesh.name +
+                                    "': its deformation turns faces that met smoothly at a vertex apart (a "
+                                    "crease opened); it must be added anew");
+    }
+  }
   return refined;
 }
 

@@ -403,6 +403,31 @@ def test_bad_changes_are_refused_and_leave_the_solution():
     assert solver.update()["converged"]  # nothing pending: nothing changes
 
 
+def test_a_deformation_that_opens_a_crease_is_refused():
+    """A receiving point holds the corners that met facing one way at its vertex: bent apart, they
+    would share one normal, so the engine refuses (the add-on then adds the object anew); bent
+    without a crease, the deformation is taken."""
+    scene, ids, _ = changing_room(ROOM_STATE)
+    rug = Mesh()
+    for x in (-0.4, 0.0):
+        for y in (-0.4, 0.0):
+            rug.add_face([(x, y, 0.01), (x + 0.4, y, 0.01), (x + 0.4, y + 0.4, 0.01), (x, y + 0.4, 0.01)], 0)
+    rug.weld()
+    rug_id = rug.add_to(scene, dynamic=True)
+    solver = engine.Solver(scene, settings("draft"))
+    solver.solve()
+    before = values(solver, ids)
+    flat = np.array(rug.positions, float)
+    tent = flat.copy()
+    tent[np.all(flat[:, :2] == 0.0, axis=1), 2] += 0.2                       # the middle vertex up
+    solver.set_positions(rug_id, tent)
+    with pytest.raises(ValueError, match="crease"):
+        solver.update()
+    assert np.array_equal(values(solver, ids), before)
+    solver.set_positions(rug_id, flat + (0.0, 0.0, 0.2))                     # lifted whole: no crease
+    assert solver.update()["converged"]
+
+
 def test_changes_before_the_first_solve_are_just_applied():
     s = settings("draft")
     scene, ids, plate = plate_room((0.2, 0.0, 1.0))
