@@ -61,7 +61,7 @@ STORE = "_radiosity_frames"      # scene ID property: {str(frame): {object name:
 _state = {"suspend": 0, "busy": False, "edited": -float("inf")}   # edited: perf_counter of the last UI edit
 counters = {"render_skips": 0}   # live updates refused because a render was running (tests)
 _served = {}                     # {scene name: frame whose colours came from frame_cache}
-_pending = set()                 # scene names with edits waiting for the timer (UI only)
+_pending = {}                    # {scene name: all its updates waiting for the timer were echoes} (UI only)
 _echo = set()                    # meshes written by the last write (their update is ours, not an edit)
 
 
@@ -323,7 +323,13 @@ def finish(scene):
         _state["busy"] = False
 
 
-def sync(scene, depsgraph=None, frame_change=False):
+def _kept(info, echo):
+    """Whether to record what an update did: the check that an echo of our writes (on_depsgraph_update)
+    hid no edit is recorded only when it found one."""
+    return not (echo and info["mode"] == "unchanged")
+
+
+def sync(scene, depsgraph=None, frame_change=False, echo=False):
     """Bring the scene's live Solver and the colours up to date with the evaluated scene, shooting to
     the threshold. Returns what it did: {"mode": "unchanged" | "incremental" | "full" | "skipped" |
     "error", ...}. `frame_change`: called for one, with no edit since the last (_begin)."""
@@ -334,12 +340,12 @@ def sync(scene, depsgraph=None, frame_change=False):
         if job is not None:
             _solve(job, info)
             info = _end(scene, job, base, info)
-        return _record(scene, info)
+        return _record(scene, info) if _kept(info, echo) else info
     finally:
         _state["busy"] = False
 
 
-def play(scene, depsgraph=None, frame_change=False, settle=False):
+def play(scene, depsgraph=None, frame_change=False, settle=False, echo=False):
     """Playback's and the UI's edits' step (see the module's notes): never waits for the engine.
     `settle`: shoot to the threshold (_watch). Whether it started an update: not while one runs,
     nor when nothing changed and the last one converged."""
@@ -351,7 +357,7 @@ def play(scene, depsgraph=None, frame_change=False, settle=False):
     try:
         job, base, info = _begin(scene, depsgraph, frame_change)
         if job is None:
-            if not (settle and info["mode"] == "unchanged"):  # a settle's result stays the last recorded
+            if _kept(info, settle or echo):               # a settle's result stays the last recorded
                 _record(scene, info)
             return False
         # A new Solver's first solve is not cut short: its first shots carry most of the light.
@@ -428,13 +434,15 @@ def _only_echo(depsgraph):
 
 def _flush():
     """Timer (UI): the edits of the last event, once, as playback's updates run."""
-    names = list(_pending)
+    pending = dict(_pending)
     _pending.clear()
     scene = bpy.context.scene
-    if scene is not None and scene.name in names and not blocked() and not rendering() \
+    if scene is not None and scene.name in pending and not blocked() and not rendering() \
             and scene.radiosity.live_update:
-        _state["edited"] = time.perf_counter()
-        play(scene, bpy.context.evaluated_depsgraph_get())
+        echo = pending[scene.name]
+        if not echo:                              # our own writes are no edit to wait for
+            _state["edited"] = time.perf_counter()
+        play(scene, bpy.context.evaluated_depsgraph_get(), echo=echo)
     return None
 
 
@@ -490,14 +498,16 @@ def on_depsgraph_update(scene, depsgraph=None):
             drop_frames(scene)
             print("Radiosity: live update: the scene was edited; the baked animation frames are out of "
                   "date and dropped (bake the animation again to keep them)")
-        elif _only_echo(depsgraph):
-            _echo.clear()
-            return
+            echo = False
+        else:
+            # Our writes come back as updates of their meshes, which an edit of those meshes made
+            # meanwhile (a script, a driver) looks like: the export and diff tell them apart.
+            echo = _only_echo(depsgraph)
         _echo.clear()
         if bpy.app.background:
-            sync(scene, depsgraph)
+            sync(scene, depsgraph, echo=echo)
         else:                                   # coalesce a drag's many updates into one solve
-            _pending.add(scene.name)
+            _pending[scene.name] = _pending.get(scene.name, True) and echo
             if not bpy.app.timers.is_registered(_flush):
                 bpy.app.timers.register(_flush, first_interval=0.0)
     except Exception as e:   # noqa: BLE001
@@ -516,9 +526,13 @@ def on_load_post(*_args):
 
 @persistent
 def on_undo_redo(*_args):
-    """Undo brings back older colours with the older scene: write the next results whatever they are."""
+    """Undo brings back older colours with the older scene: write the next results whatever they are.
+    The baked frames are the restored file's (scene[STORE]): kept in memory only, they would bring an
+    undone bake back at the next frame change."""
     last_written.clear()
     _echo.clear()
+    frame_cache.clear()
+    _served.clear()
 
 
 HANDLERS = (("frame_change_pre", on_frame_change_pre),
