@@ -1,0 +1,108 @@
+"""Live update of the issue-4 change kinds that test_live_update.py leaves out: deformation by a
+modifier, a shape key and an armature, and lamps (colour, position, the direction of spot, sun and
+area lamps). Each one is a single edit of a baked edit_scene. The edit must reach the Solver as one
+call on the edited object, and the result must match a fresh bake of the edited state, with
+test_live_update's bound and settings.
+"""
+import bpy
+import numpy as np
+import pytest
+
+# clean_scene_after is autouse: imported, it leaves the files after this one an empty scene too.
+from test_live_update import (BOUND, call_names, changed, check_finite, clean_scene_after,  # noqa: F401
+                              edit_scene, fresh_bake, ms, read, relative_rms, stacked)
+
+
+# Each setup prepares the scene before the bake, so that the change it returns is the only
+# difference from the baked state: an edit of something that is already there, not an addition.
+def simple_deform(scene):
+    mod = scene.objects["Box"].modifiers.new("Taper", 'SIMPLE_DEFORM')
+    mod.deform_method = 'TAPER'
+    mod.factor = 0.0
+    return lambda: setattr(mod, "factor", 0.8)
+
+
+def shape_key(scene):
+    box = scene.objects["Box"]
+    box.shape_key_add(name="Basis")
+    key = box.shape_key_add(name="Squash")
+    co = np.empty(3 * len(key.data), np.float32)
+    key.data.foreach_get("co", co)
+    co[2::3] *= 0.5
+    key.data.foreach_set("co", co)
+    return lambda: setattr(key, "value", 1.0)
+
+
+def armature(scene):
+    box = scene.objects["Box"]
+    rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+    scene.collection.objects.link(rig)
+    bpy.context.view_layer.objects.active = rig
+    bpy.ops.object.mode_set(mode='EDIT')                 # bones can only be made in Edit Mode
+    bone = rig.data.edit_bones.new("Bone")
+    bone.head, bone.tail = (0.0, 0.0, 0.0), (0.0, 0.0, 0.6)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    box.vertex_groups.new(name="Bone").add(range(len(box.data.vertices)), 1.0, 'REPLACE')
+    box.modifiers.new("Armature", 'ARMATURE').object = rig
+    pose = rig.pose.bones["Bone"]
+    pose.rotation_mode = 'XYZ'
+    return lambda: setattr(pose, "rotation_euler", (0.6, 0.0, 0.0))
+
+
+def lamp_colour(scene):
+    return lambda: setattr(bpy.data.lights["Lamp"], "color", (1.0, 0.3, 0.1))
+
+
+def lamp_position(scene):
+    return lambda: setattr(scene.objects["Lamp"], "location", (-0.8, 0.6, 1.5))
+
+
+def spot_rotation(scene):
+    spot = ms.lamp("Spot", 'SPOT', (1.0, 1.0, 1.5), color=(1.0, 0.8, 0.6), energy=300.0)
+    return lambda: setattr(spot, "rotation_euler", (0.5, 0.3, 0.0))
+
+
+def sun_rotation(scene):
+    sun = ms.lamp("Sun", 'SUN', (0.0, 0.0, 3.0), rotation=(0.3, 0.0, 0.0), energy=2.0)
+    return lambda: setattr(sun, "rotation_euler", (0.9, 0.4, 0.0))
+
+
+def area_move_and_rotation(scene):
+    area = ms.lamp("Area", 'AREA', (0.0, 1.5, 1.5), energy=100.0)
+
+    def change():
+        area.location = (0.5, -1.0, 1.2)
+        area.rotation_euler = (0.8, 0.0, 0.0)
+    return change
+
+
+@pytest.mark.parametrize("setup,call,target", [
+    (simple_deform, "set_positions", "Box"),
+    (shape_key, "set_positions", "Box"),
+    (armature, "set_positions", "Box"),
+    (lamp_colour, "set_point_light", "Lamp"),
+    (lamp_position, "set_point_light", "Lamp"),
+    (spot_rotation, "set_spot_light", "Spot"),
+    (sun_rotation, "set_sun_light", "Sun"),
+    (area_move_and_rotation, "set_area_light", "Area"),
+], ids=lambda p: getattr(p, "__name__", None))
+def test_change_is_incremental_and_matches_fresh_bake(addon, setup, call, target):
+    live = addon.live_update
+    scene = edit_scene()
+    change = setup(scene)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    before = read(scene)
+    change()
+    bpy.context.view_layer.update()                       # depsgraph_update_post -> live update
+    info = live.last_sync[scene.name]
+    job = live.live_jobs[scene.name]
+    assert info["mode"] == "incremental" and call_names(job) == [call], (info, job.calls)
+    held = job.export.meshes if call == "set_positions" else job.export.lights
+    assert held[job.calls[0][1][0]].name == target
+    now = read(scene)
+    check_finite(now)
+    assert changed(now, before)
+    err = relative_rms(stacked(now), stacked(fresh_bake(scene)))
+    print(f"{setup.__name__} vs fresh bake: {100 * err:.3f}% RMS")
+    assert err < BOUND
