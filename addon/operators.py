@@ -35,6 +35,13 @@ def _report_all(report, messages, kind='WARNING'):
     return seen
 
 
+def _failure(e):
+    """The report of a bake that stopped on exception `e`: the scene's fault (BakeError) or ours."""
+    if isinstance(e, bake.BakeError):
+        return f"Radiosity: {e}"
+    return f"Radiosity: the bake failed ({type(e).__name__}: {e}); colours unchanged"
+
+
 def _frames(scene, animation):
     if not animation:
         return [scene.frame_current]
@@ -88,6 +95,13 @@ def finish(context, jobs, results, animation, report):
     if animation:
         frame_cache[scene.name] = results
         live_update.store_frames(scene, results)
+        if not scene.render.use_lock_interface:
+            # A render's frame step writes each frame's colours from the render thread; the viewport
+            # drawing the same meshes meanwhile can crash Blender (bpy.app.handlers, "Note on
+            # Altering Data"), unless the interface is locked while rendering.
+            scene.render.use_lock_interface = True
+            report({'INFO'}, "Radiosity: Render > Lock Interface turned on, so that renders can write "
+                             "each baked frame's colours safely")
     else:
         cache = live_update.frames_of(scene)
         if cache is not None:
@@ -180,8 +194,8 @@ class _Bake:
         f = self._frames[self._index]
         try:
             self._job = prepare_frame(context, f, self.animation, self._jobs[-1] if self._jobs else None)
-        except bake.BakeError as e:
-            self.report({'ERROR'}, f"Radiosity: {e}")
+        except Exception as e:   # noqa: BLE001 -- reported (_failure); live update must not stay held
+            self.report({'ERROR'}, _failure(e))
             self._restore_frame(context)
             return False
         self._jobs.append(self._job)
@@ -222,18 +236,29 @@ class _Bake:
             context.workspace.status_text_set(None)
 
     def modal(self, context, event):
-        result = self._modal(context, event)
+        try:
+            result = self._modal(context, event)
+        except Exception as e:   # noqa: BLE001 -- a fault of ours must not leave the timer and live update held
+            self._stop(context)
+            self.report({'ERROR'}, _failure(e))
+            result = {'CANCELLED'}
         if result != {'PASS_THROUGH'}:
             self._end()
         return result
 
+    def _stop(self, context):
+        """Ends the running frame's solve and puts the UI and the frame back, writing nothing."""
+        if self._job is not None:
+            self._job.cancel()
+        if self._thread is not None:
+            self._thread.join()
+        self._cleanup(context)
+        self._restore_frame(context)
+
     def _modal(self, context, event):
         job = self._job
         if event.type == 'ESC' and event.value == 'PRESS':
-            job.cancel()
-            self._thread.join()
-            self._cleanup(context)
-            self._restore_frame(context)
+            self._stop(context)
             self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
             return {'CANCELLED'}
         if event.type != 'TIMER':
@@ -246,8 +271,7 @@ class _Bake:
             return {'PASS_THROUGH'}
         self._thread.join()
         if job.error is not None or not job.succeeded:
-            self._cleanup(context)
-            self._restore_frame(context)
+            self._stop(context)
             if job.error is not None:
                 self.report({'ERROR'}, f"Radiosity: {job.error}")
             else:
@@ -266,10 +290,7 @@ class _Bake:
         return {'FINISHED'}
 
     def cancel(self, context):          # Blender closes the window / file while running
-        if self._job is not None:
-            self._job.cancel()
-            self._thread.join()
-        self._cleanup(context)
+        self._stop(context)
         self._end()
 
 

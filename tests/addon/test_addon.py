@@ -139,27 +139,111 @@ def test_bake_animation_caches_frames(addon):
     assert scene.name not in addon.operators.frame_cache
 
 
-# ----------------------------------------------------------------------------- cancel
-def test_cancel_keeps_previous_colours(addon):
-    scene, ob = empty_with_plane()
-    assert bpy.ops.radiosity.bake() == {'FINISHED'}
-    before = colours(ob).copy()
-    ob.location.z = -1.0                     # the lighting would change
-    calls = []
+# ----------------------------------------------------------------------------- the modal bake
+class _WindowManager:
+    """What the modal operator asks of the window manager, without a window (background mode)."""
 
-    def cancel_at_once(fraction, residual):
-        calls.append(fraction)
-        return False
-    jobs, results = addon.operators.bake_frames(bpy.context, [scene.frame_current], False, cancel_at_once)
-    assert results is None and calls          # cancelled (the engine may have finished anyway)
-    np.testing.assert_array_equal(colours(ob), before)
+    def __init__(self):
+        self.timers = 0
+        self.progress = None
+
+    def event_timer_add(self, step, window=None):
+        self.timers += 1
+        return self
+
+    def event_timer_remove(self, timer):
+        self.timers -= 1
+
+    def progress_begin(self, low, high):
+        self.progress = low
+
+    def progress_update(self, value):
+        self.progress = value
+
+    def progress_end(self):
+        self.progress = None
+
+    def modal_handler_add(self, operator):
+        pass
+
+
+class _Context:
+    """bpy.context, with a window manager the test reads and no window, area or workspace."""
+
+    def __init__(self):
+        self.window_manager = _WindowManager()
+        self.window = self.area = self.workspace = None
+
+    def __getattr__(self, name):
+        return getattr(bpy.context, name)
+
+
+def _event(kind):
+    return type("Event", (), {"type": kind, "value": 'PRESS'})()
+
+
+def modal_bake(addon, animation=False, stop=None):
+    """Runs the bake operators' modal path as the UI would (invoke, then timer events), pressing Esc
+    once `stop(operator)` holds. (result, reports, context)."""
+    reports = []
+    base = addon.operators._Bake
+    op = type("ModalBake", (base,), {"animation": animation,
+                                      "report": lambda self, kind, text: reports.append((kind, text))})()
+    context = _Context()
+    result = op.invoke(context, _event('NONE'))
+    while result == {'RUNNING_MODAL'} or result == {'PASS_THROUGH'}:
+        result = op.modal(context, _event('ESC' if stop is not None and stop(op) else 'TIMER'))
+    return result, reports, context
+
+
+def test_modal_bake_writes_on_success_and_nothing_on_esc_or_failure(addon, monkeypatch):
+    """Each ending of the UI's bake: finished, it writes; Esc part-way through an animation (after its
+    first frame solved) or a failure of ours writes nothing and hands the UI and live update back."""
+    live = addon.live_update
+    scene = open_blend("animated_room", 1)
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23
+    result, reports, context = modal_bake(addon)
+    assert result == {'FINISHED'}, reports
+    obs = meshes(scene)
+    baked = {ob.name: colours(ob).copy() for ob in obs}
+    assert all(v is not None for v in baked.values())
+    assert context.window_manager.timers == 0 and context.window_manager.progress is None
+    assert not live.blocked()
+
+    def check_untouched(result, reports, context):
+        assert result == {'CANCELLED'}, reports
+        assert scene.frame_current == 1 and scene.name not in addon.operators.frame_cache
+        for ob in obs:
+            np.testing.assert_array_equal(colours(ob), baked[ob.name])
+        assert context.window_manager.timers == 0 and context.window_manager.progress is None
+        assert not live.blocked()
+
+    scene.objects["Box"].location.x += 0.5                 # the lighting would change
+    outcome = modal_bake(addon, animation=True, stop=lambda op: op._index == 1)
+    check_untouched(*outcome)
+    assert outcome[1][-1][0] == {'WARNING'} and "cancelled" in outcome[1][-1][1]
+
+    def broken_colours(job, *args, **kwargs):
+        raise RuntimeError("broken read")
+    monkeypatch.setattr(addon.bake.BakeJob, "colours", broken_colours)
+    outcome = modal_bake(addon, animation=True)
+    check_untouched(*outcome)
+    assert outcome[1][-1][0] == {'ERROR'} and "broken read" in outcome[1][-1][1]
+
+
+def test_animation_bake_locks_the_interface_for_renders(addon):
+    """A render writes each baked frame's colours from its own thread: the viewport must not draw
+    meanwhile (Render > Lock Interface), so the animation bake turns it on and says so."""
+    scene = open_blend("animated_room", 1)
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23
+    scene.render.use_lock_interface = False
+    result, reports, _ = modal_bake(addon, animation=True)
+    assert result == {'FINISHED'} and scene.render.use_lock_interface
+    assert any("Lock Interface" in text for kind, text in reports if kind == {'INFO'})
 
 
 def test_cancel_from_another_thread(addon):
     scene = open_blend("cornell_box", preset='HIGH')
-    room = scene.objects["Room"]
-    rgba = np.full((len(room.data.loops), 4), 0.25, np.float32)
-    addon.writeback.write_mesh(room.data, rgba)
     job = addon.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
     started = threading.Event()
 
@@ -172,7 +256,6 @@ def test_cancel_from_another_thread(addon):
     job.cancel()
     t.join(60)
     assert not t.is_alive() and job.done and not job.succeeded
-    np.testing.assert_array_equal(colours(room), rgba)
 
 
 # ----------------------------------------------------------------------------- bad scenes
