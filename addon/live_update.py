@@ -61,7 +61,7 @@ STORE = "_radiosity_frames"      # scene ID property: {str(frame): {object name:
 _state = {"suspend": 0, "busy": False, "edited": -float("inf")}   # edited: perf_counter of the last UI edit
 counters = {"render_skips": 0}   # live updates refused because a render was running (tests)
 _served = {}                     # {scene name: frame whose colours came from frame_cache}
-_pending = {}                    # {scene name: all its updates waiting for the timer were echoes} (UI only)
+_pending = {}                    # {scene name: an edit is among its updates waiting for the timer} (UI only)
 _echo = set()                    # meshes written by the last write (their update is ours, not an edit)
 
 
@@ -323,13 +323,13 @@ def finish(scene):
         _state["busy"] = False
 
 
-def _kept(info, echo):
-    """Whether to record what an update did: the check that an echo of our writes (on_depsgraph_update)
-    hid no edit is recorded only when it found one."""
-    return not (echo and info["mode"] == "unchanged")
+def _kept(info, edit):
+    """Whether to record what an update did: one not known to follow an edit (the echo of our writes,
+    a settle) is recorded only when it found a change."""
+    return edit or info["mode"] != "unchanged"
 
 
-def sync(scene, depsgraph=None, frame_change=False, echo=False):
+def sync(scene, depsgraph=None, frame_change=False, edit=True):
     """Bring the scene's live Solver and the colours up to date with the evaluated scene, shooting to
     the threshold. Returns what it did: {"mode": "unchanged" | "incremental" | "full" | "skipped" |
     "error", ...}. `frame_change`: called for one, with no edit since the last (_begin)."""
@@ -340,12 +340,12 @@ def sync(scene, depsgraph=None, frame_change=False, echo=False):
         if job is not None:
             _solve(job, info)
             info = _end(scene, job, base, info)
-        return _record(scene, info) if _kept(info, echo) else info
+        return _record(scene, info) if _kept(info, edit) else info
     finally:
         _state["busy"] = False
 
 
-def play(scene, depsgraph=None, frame_change=False, settle=False, echo=False):
+def play(scene, depsgraph=None, frame_change=False, settle=False, edit=True):
     """Playback's and the UI's edits' step (see the module's notes): never waits for the engine.
     `settle`: shoot to the threshold (_watch). Whether it started an update: not while one runs,
     nor when nothing changed and the last one converged."""
@@ -357,7 +357,7 @@ def play(scene, depsgraph=None, frame_change=False, settle=False, echo=False):
     try:
         job, base, info = _begin(scene, depsgraph, frame_change)
         if job is None:
-            if _kept(info, settle or echo):               # a settle's result stays the last recorded
+            if _kept(info, edit and not settle):          # a settle's result stays the last recorded
                 _record(scene, info)
             return False
         # A new Solver's first solve is not cut short: its first shots carry most of the light.
@@ -432,6 +432,14 @@ def _only_echo(depsgraph):
     return True
 
 
+def request(scene, edit):
+    """An update of `scene` from the UI's timer (_flush), which coalesces a drag's many edits into one.
+    `edit`: the user edited; else only our own writes came back, and the export and diff tell."""
+    _pending[scene.name] = _pending.get(scene.name, False) or edit
+    if not bpy.app.timers.is_registered(_flush):
+        bpy.app.timers.register(_flush, first_interval=0.0)
+
+
 def _flush():
     """Timer (UI): the edits of the last event, once, as playback's updates run."""
     pending = dict(_pending)
@@ -439,10 +447,10 @@ def _flush():
     scene = bpy.context.scene
     if scene is not None and scene.name in pending and not blocked() and not rendering() \
             and scene.radiosity.live_update:
-        echo = pending[scene.name]
-        if not echo:                              # our own writes are no edit to wait for
+        edit = pending[scene.name]
+        if edit:                                  # only an edit makes the settle wait (editing())
             _state["edited"] = time.perf_counter()
-        play(scene, bpy.context.evaluated_depsgraph_get(), echo=echo)
+        play(scene, bpy.context.evaluated_depsgraph_get(), edit=edit)
     return None
 
 
@@ -498,18 +506,16 @@ def on_depsgraph_update(scene, depsgraph=None):
             drop_frames(scene)
             print("Radiosity: live update: the scene was edited; the baked animation frames are out of "
                   "date and dropped (bake the animation again to keep them)")
-            echo = False
+            edit = True
         else:
             # Our writes come back as updates of their meshes, which an edit of those meshes made
             # meanwhile (a script, a driver) looks like: the export and diff tell them apart.
-            echo = _only_echo(depsgraph)
+            edit = not _only_echo(depsgraph)
         _echo.clear()
         if bpy.app.background:
-            sync(scene, depsgraph, echo=echo)
-        else:                                   # coalesce a drag's many updates into one solve
-            _pending[scene.name] = _pending.get(scene.name, True) and echo
-            if not bpy.app.timers.is_registered(_flush):
-                bpy.app.timers.register(_flush, first_interval=0.0)
+            sync(scene, depsgraph, edit=edit)
+        else:
+            request(scene, edit)
     except Exception as e:   # noqa: BLE001
         print("Radiosity: live update failed:", e)
 

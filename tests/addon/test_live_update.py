@@ -357,7 +357,7 @@ def test_viewport_edits_run_in_a_worker_and_settle_when_they_stop(addon, monkeyp
         with live.suspended():                            # in background mode the handler would solve
             box.location.x = x
             bpy.context.view_layer.update()
-        live._pending[scene.name] = False        # an edit, not an echo
+        live._pending[scene.name] = True         # an edit, not an echo
         live._flush()                                     # what the UI's timer does after the edit
         assert scene.name in live.playback                # the UI did not wait for the engine
         info = live.finish(scene)                         # what the next edit does once it has ended
