@@ -70,19 +70,43 @@ def _edit_mode_objects(scene):
             if ob.type == 'MESH' and (ob.mode == 'EDIT' or getattr(ob.data, "is_editmode", False))]
 
 
-def _non_manifold_count(m, limit=200000):
-    """Edges used by exactly one face (cheap, vectorised; skipped on large meshes: returns -1)."""
-    if len(m.face_vertices) > limit:
-        return -1
+# How far from the world origin a vertex may lie (metres, Blender units). Blender holds coordinates
+# and transforms in float32, whose steps at 1e15 m are 2^26 m (67,000 km): nothing modelled lies
+# there; a vertex that far is a stray one, a script's inf (Blender stores FLT_MAX) or a runaway scale.
+# The engine would take it (it works in double about the scene's centre; Embree, in float32, drops
+# faces only past 1.8e18), but its tolerances follow the scene's size: patches under 1e-7 of the
+# diagonal are dropped as degenerate and rays leave surfaces 1e-5 of it off, so every other surface
+# would vanish and the bake come out black, blamed on the lamps.
+FAR = 1e15
+
+
+def _check_extent(sx):
+    """BakeError naming the first mesh of `sx` (hidden ones too: they set the engine's scene size as
+    well) with a vertex past FAR from the world origin. NaN passes: the engine names it."""
+    # A bound first, as every live edit exports: the largest object-space coordinate through each
+    # transform's rows; world positions only where it is past.
+    reach = np.array([np.maximum(m.positions.max(initial=0.0), -m.positions.min(initial=0.0)) for m in sx.meshes])
+    T = np.abs(np.array([m.transform[:3] for m in sx.meshes]))
+    for i in np.flatnonzero(T[:, :, 3].max(1) + T[:, :, :3].sum(2).max(1) * reach > FAR):
+        m = sx.meshes[i]
+        far = np.abs(m.positions @ m.transform[:3, :3].T + m.transform[:3, 3]).max()
+        if far > FAR:
+            raise BakeError(f"object '{m.name}': a vertex lies {far:.3g} m from the world origin, past {FAR:.0e} m "
+                            "(a stray vertex, an infinite value set by a script, a huge scale?); beside it every "
+                            "other surface would be too small for the solver to light: move or delete it")
+
+
+def _open(m):
+    """Whether the engine solves both sides of mesh `m`: all but closed ones, where each directed edge of
+    the faces comes once and its reverse once (ObjectPatches::enclosed_side), whose inside it skips."""
     fv = m.face_vertices.astype(np.int64)
     starts = np.concatenate(([0], np.cumsum(m.face_sizes)[:-1]))
     nxt = np.arange(len(fv)) + 1
-    ends = starts + m.face_sizes
-    nxt[ends - 1] = starts
+    nxt[starts + m.face_sizes - 1] = starts
     a, b = fv, fv[nxt]
-    key = np.minimum(a, b) * (len(m.positions) + 1) + np.maximum(a, b)
-    _, counts = np.unique(key, return_counts=True)
-    return int((counts == 1).sum() + (counts > 2).sum())
+    n = len(m.positions) + 1
+    edges = np.sort(a * n + b)
+    return bool((a == b).any() or (edges[1:] == edges[:-1]).any() or not np.array_equal(edges, np.sort(b * n + a)))
 
 
 def effects_of(sx):
@@ -114,6 +138,13 @@ def effects_of(sx):
         out.append("curve, text, surface and metaball objects (in the light, with no colours to hold)")
     if meshes:
         out.append("diffuse interreflection")
+    # Information, not a warning: Cycles lights both sides of them too (every floor plane is one); they
+    # cost the engine the inside it skips on closed meshes. Once per object: instances share its faces.
+    sources = {m.object_name: m for m in meshes}
+    both = [name for name, m in sources.items() if _open(m)]
+    if both:
+        out.append("both sides of open meshes or ones with flipped faces ("
+                   + ", ".join(both[:5]) + (" ..." if len(both) > 5 else "") + ")")
     return ", ".join(out)
 
 
@@ -139,8 +170,8 @@ def _lamp_call(index, l):
 
 # For the messages that report a rebuild.
 REBUILD_NOTE = ("the engine takes every change of the scene incrementally, objects, lamps and materials "
-                "added included, but for new quality settings, an object added beyond the scene's size, or "
-                "deleted and replaced objects outweighing the scene")
+                "added included, but for new quality settings, an object added beyond the scene's size, a "
+                "deformation that opens a crease, or deleted and replaced objects outweighing the scene")
 
 # Appended (with its index) to the name of a mesh or lamp the Solver keeps but the scene no longer
 # has as it was (align_export): no Blender name holds a NUL.
@@ -291,6 +322,7 @@ class BakeJob:
         self.export = self.exported = sx
         if not sx.visible_meshes:
             raise BakeError("nothing to bake: the scene has no visible mesh objects")
+        _check_extent(sx)
         self.warnings += sx.warnings
         if props is not None:
             self.settings = engine_settings(props, self.engine)
@@ -315,11 +347,7 @@ class BakeJob:
             self.ids = {m.name: i for i, m in enumerate(self.export.meshes)}
         else:
             self._build_scene()
-        self.effects = effects_of(sx)
-        nm = [] if self.incremental else [m.name for m in sx.visible_meshes if _non_manifold_count(m) > 0]
-        if nm:
-            self.warnings.append("non-manifold or open meshes (fine, both sides reflect): "
-                                 + ", ".join(nm[:5]) + (" ..." if len(nm) > 5 else ""))
+        self._effects = None
         self.seconds = 0.0
 
     def _build_scene(self):
@@ -327,6 +355,14 @@ class BakeJob:
             self.scene, self.ids = exporter.to_engine(self.export, self.engine)
         except ValueError as e:
             raise BakeError(str(e)) from e
+
+    @property
+    def effects(self):
+        """effects_of the scene exported, worked out when first read (a bake's report), not for every
+        live edit: it sorts every mesh's edges."""
+        if self._effects is None:
+            self._effects = effects_of(self.exported)
+        return self._effects
 
     @property
     def incremental(self):

@@ -339,13 +339,18 @@ def mesh_arrays(me):
     return co.reshape(-1, 3).astype(np.float64), sizes, lv, mi, loops
 
 
+def _deforming(ob):
+    """What Blender's evaluation makes of mesh object ob's data besides its last Subdivision Surface
+    (which goes to the engine as cage and level): "modifier <name>" for its others Cycles applies,
+    and "shape keys". (Modifiers compare with ==: each access makes a new Python object.)"""
+    sub = _last_subsurf(ob)
+    return [f"modifier {m.name}" for m in ob.modifiers if m.show_render and m != sub] + \
+        (["shape keys"] if ob.data.shape_keys is not None else [])
+
+
 def _needs_reevaluation(ob):
     """True when ob's cage (mesh without its last Subdivision Surface) is not simply ob.data."""
-    sub = _last_subsurf(ob)
-    if sub is None:
-        return False
-    others = [m for m in ob.modifiers if m.show_render and m is not sub]
-    return bool(others) or ob.data.shape_keys is not None
+    return _last_subsurf(ob) is not None and bool(_deforming(ob))
 
 
 def _cages_by_reevaluation(objects, depsgraph):
@@ -367,11 +372,16 @@ def _cages_by_reevaluation(objects, depsgraph):
         depsgraph.update()
 
 
+def _keyed(idb):
+    """Whether an action, drivers or NLA tracks drive the ID `idb` (None: no)."""
+    ad = getattr(idb, "animation_data", None)
+    return ad is not None and bool(ad.action is not None or len(ad.drivers) or len(ad.nla_tracks))
+
+
 def _is_animated(ob):
     o = ob
     while o is not None:
-        ad = o.animation_data
-        if ad is not None and (ad.action is not None or len(ad.drivers) or len(ad.nla_tracks)):
+        if _keyed(o):
             return True
         o = o.parent
     return False
@@ -582,17 +592,63 @@ def dark(l):
 
 
 # ----------------------------------------------------------------------------- scene
-def _rendered_collections(scene):
-    """The scene's collections whose objects Cycles renders (as_pointer()s): reached from the scene's
-    own collection without passing through one hidden from render."""
-    rendered, stack = set(), [scene.collection]
+def _shown_collections(scene, hidden):
+    """The scene's collections (as_pointer()s) reached from the scene's own collection without passing
+    through one whose flag `hidden` is set: "hide_render", those whose objects Cycles renders;
+    "hide_viewport", those whose objects the viewport's depsgraph holds (not disabled in viewports)."""
+    shown, stack = set(), [scene.collection]
     while stack:
         c = stack.pop()
-        if c.as_pointer() in rendered or c.hide_render:
+        if c.as_pointer() in shown or getattr(c, hidden):
             continue
-        rendered.add(c.as_pointer())
+        shown.add(c.as_pointer())
         stack.extend(c.children)
-    return rendered
+    return shown
+
+
+def _in(ob, collections, hidden):
+    """`ob` is shown in one of `collections` (_shown_collections(scene, hidden)) and not itself hidden."""
+    return not getattr(ob, hidden) and any(c.as_pointer() in collections for c in ob.users_collection)
+
+
+def _stored_matrix(ob, depsgraph, enabled):
+    """(object -> world matrix, None) of `ob`, an object the viewport's depsgraph does not evaluate
+    (disabled in viewports), from what is stored in it; or (None, why not). Stored, its location,
+    rotation and scale (deltas too: matrix_basis) are the user's, but its matrix_world is the one of
+    its last evaluation, stale once its parent moved. What animation, drivers, constraints or physics
+    make of it only an evaluation knows. In float32, multiplied as Blender does: an object disabled
+    in viewports goes with the bits it had shown (live update sees no move). `enabled`:
+    _shown_collections(scene, "hide_viewport")."""
+    if _keyed(ob) or ob.rigid_body is not None or any(not c.mute for c in ob.constraints):
+        return None, f"the animation, constraints or physics of {ob.name}"
+    basis = np.array(ob.matrix_basis, np.float32)
+    p = ob.parent
+    if p is None:
+        return basis, None
+    if ob.parent_type != 'OBJECT' or getattr(p.data, "use_path", False):   # a bone, vertices, a path
+        return None, f"its parenting to {p.name} ({ob.parent_type.lower()})"
+    ev = p.evaluated_get(depsgraph)
+    if ev.is_evaluated and _in(p, enabled, "hide_viewport"):
+        parent = np.array(ev.matrix_world, np.float32)
+    else:
+        parent, why = _stored_matrix(p, depsgraph, enabled)
+        if parent is None:
+            return None, why
+    return parent @ np.array(ob.matrix_parent_inverse, np.float32) @ basis, None
+
+
+def _from_data(ob, depsgraph, enabled):
+    """(matrix, None) when what Cycles renders of `ob`, disabled in viewports, is its own data (a mesh
+    with no modifier but a last Subdivision Surface, which goes as cage and level anyway; a lamp)
+    placed by _stored_matrix; else (None, what only Blender's evaluation applies)."""
+    if ob.type not in ('MESH', 'LIGHT'):
+        return None, f"turning its {ob.type.lower()} data into faces"
+    applied = _deforming(ob) if ob.type == 'MESH' else []
+    if applied:
+        return None, f"its {applied[0]}"
+    if _keyed(ob.data):
+        return None, f"the animation of its {ob.type.lower()} data"
+    return _stored_matrix(ob, depsgraph, enabled)
 
 
 # Object types whose evaluated geometry Cycles renders as surfaces (hair curves and point clouds it
@@ -600,9 +656,41 @@ def _rendered_collections(scene):
 GEOMETRY = ('MESH', 'CURVE', 'FONT', 'SURFACE', 'META')
 
 
+def _hidden_in_viewports(depsgraph, listed, rendered, warnings):
+    """export_scene's items for the objects Cycles renders but the viewport hides, which the depsgraph's
+    object_instances leaves out (`listed`: the names it gave; `rendered`: _shown_collections(scene,
+    "hide_render")). Hidden with H (or a collection's eye), an object is evaluated all the same and
+    goes as if shown. Disabled in viewports (its own or a collection's monitor icon), it is not
+    evaluated: it goes as its own data (_from_data), or, where Cycles renders more than that, stays
+    out of the lighting with a warning saying why and what to do."""
+    view_layer = depsgraph.view_layer
+    enabled = _shown_collections(depsgraph.scene, "hide_viewport")
+    items = []
+    for ob in view_layer.objects:
+        # An object the iterator left out but visible is an instancer not shown as itself.
+        if (ob.type not in GEOMETRY and ob.type != 'LIGHT') or ob.name in listed \
+                or ob.visible_get(view_layer=view_layer) or not _in(ob, rendered, "hide_render"):
+            continue
+        ev = ob.evaluated_get(depsgraph)
+        if ev.is_evaluated and _in(ob, enabled, "hide_viewport"):
+            items.append((ob, ob.type, np.array(ev.matrix_world, np.float64), ob.name, True, True))
+            continue
+        M, why = _from_data(ob, depsgraph, enabled)
+        if M is None:
+            warnings.append(f"'{ob.name}' is disabled in viewports but renders; it is left out of the lighting: "
+                            f"{why}, which only Blender's evaluation applies, and a disabled object gets "
+                            "none. Enable it in viewports (hidden with H it is still lit) or disable it in "
+                            "renders")
+        else:
+            items.append((ob, ob.type, M, ob.name, True, False))
+    return items
+
+
 def export_scene(depsgraph=None, use_render_levels=True, images=None):
     """Export the evaluated scene. Meshes and lamps hidden from render are exported too (meshes with
     visible=False, lamps dark()): a Solver built from the export can show them later without a rebuild.
+    Those hidden in the viewport but rendered light the scene as Cycles renders them
+    (_hidden_in_viewports). Instanced meshes light it too, and are named "name[i]".
     `images`: a texture.Images that earlier exports of the same images used (other frames of the
     same scene, no edit between); None: every image read anew."""
     if depsgraph is None:
@@ -611,30 +699,42 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
     registry, materials, meshes, lights, warnings = {}, [], [], [], []
     images = colour_texture.Images() if images is None else images
     # Collect first: _cages_by_reevaluation re-evaluates the depsgraph, invalidating the iterator.
-    items = []
+    items = []          # (original object, type, matrix, name, visible, evaluated: read from the depsgraph)
+    listed = set()      # the objects the iterator gave as themselves
     counts = {}
-    rendered = _rendered_collections(scene.original)
+    instancers = {}     # {instancer: names of the meshes it instances}
+    rendered = _shown_collections(scene.original, "hide_render")
     for inst in depsgraph.object_instances:
         ob = inst.object
         if ob.type not in GEOMETRY and ob.type != 'LIGHT':
             continue
         if inst.is_instance and ob.type == 'MESH' and ob.original.type != 'MESH':
             continue   # a curve's (text's...) evaluated mesh: listed beside the curve, exported as it
+        # An instance's source collection is often hidden from render on purpose: only the object's own
+        # flag counts there.
+        visible = (inst.is_instance and not ob.original.hide_render) or _in(ob.original, rendered, "hide_render")
         if inst.is_instance:
             counts[ob.name] = counts.get(ob.name, 0) + 1
             name = f"{ob.name}[{counts[ob.name] - 1}]"
+            if visible and ob.type == 'MESH':
+                instancers.setdefault(inst.parent.original.name, set()).add(ob.original.name)
         else:
             name = ob.name
-        # An instance's source collection is often hidden from render on purpose: only the object's own
-        # flag counts there.
-        visible = not ob.original.hide_render and (
-            inst.is_instance or any(c.as_pointer() in rendered for c in ob.original.users_collection))
-        items.append((ob.original, ob.type, np.array(inst.matrix_world, np.float64), name, visible))
-    todo = {o.name: o for o, kind, _, _, _ in items if kind == 'MESH' and _needs_reevaluation(o)}
+            listed.add(name)
+        items.append((ob.original, ob.type, np.array(inst.matrix_world, np.float64), name, visible, True))
+    items += _hidden_in_viewports(depsgraph, listed, rendered, warnings)
+    if instancers:
+        # BakeJob.colours() writes none: an instance has no mesh of its own to hold them.
+        held = [f"{k} ({', '.join(sorted(v))})" for k, v in sorted(instancers.items())]
+        warnings.append("instanced meshes light the scene but get no colours (a mesh holds one set, which every "
+                        "instance of it shows): " + "; ".join(held[:5]) + (" ..." if len(held) > 5 else "")
+                        + "; Object > Apply > Make Instances Real (then Make Local, for linked ones) gives "
+                        "each its own")
+    todo = {o.name: o for o, kind, *_ in items if kind == 'MESH' and _needs_reevaluation(o)}
     cages = _cages_by_reevaluation(list(todo.values()), depsgraph)
     try:
-        for orig, kind, M, name, visible in items:
-            ev = orig.evaluated_get(depsgraph)
+        for orig, kind, M, name, visible, evaluated in items:
+            ev = orig.evaluated_get(depsgraph) if evaluated else orig
             if kind in GEOMETRY:
                 m = export_mesh(ev, depsgraph, M, registry, materials, name, use_render_levels,
                                 cages.get(orig.name), warnings, images)

@@ -2,6 +2,7 @@
 import math
 import time
 
+import bmesh
 import bpy
 import numpy as np
 import pytest
@@ -315,3 +316,176 @@ def test_an_environment_texture_lights_as_its_suns_and_the_mean_of_the_rest(expo
     assert any("1 sun lamp(s) and a 128 x 64 map of the rest" in w for w in sx.warnings), sx.warnings
     env.image = None
     assert any("TEX_ENVIRONMENT" in w for w in export.export_scene().warnings)
+
+
+# ----------------------------------------------------------------------------- hidden, instanced, far, open
+def box(name, location, collection=None, modifier=None):
+    me = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=0.4)
+    bm.to_mesh(me)
+    bm.free()
+    ob = bpy.data.objects.new(name, me)
+    ob.location = location
+    (collection or bpy.context.scene.collection).objects.link(ob)
+    if modifier:
+        ob.modifiers.new(modifier, modifier)
+    return ob
+
+
+@pytest.fixture
+def plane_and_lamp(addon):
+    """A 2 m plane lit by a point lamp 2 m above, draft quality; Blender's empty factory scene after
+    (the modules that follow start from its defaults)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    me = bpy.data.meshes.new("Plane")
+    me.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    plane = bpy.data.objects.new("Plane", me)
+    scene.collection.objects.link(plane)
+    add_lamp('POINT', energy=100.0, location=(0, 0, 2))
+    scene.radiosity.preset = 'DRAFT'
+    yield scene, plane
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def test_objects_hidden_in_the_viewport_light_the_scene_as_cycles_renders_them(export, addon, plane_and_lamp):
+    """Cycles renders what is hidden in the viewport. Hidden with H, an object is still evaluated: it
+    goes as shown. Disabled in viewports (its own or its collection's monitor icon) it is not: it goes
+    as its own data where that is what renders (no modifier but a last Subdivision Surface, sent as
+    cage and level anyway), placed from its location and its parent; hiding or disabling sends the
+    live Solver no change."""
+    scene, plane = plane_and_lamp
+    held = box("Held", (0.5, 0, 0.5), modifier='SOLIDIFY')          # H
+    plain = box("Plain", (-0.5, 0, 0.5))                              # disabled
+    smooth = box("Smooth", (0, 0.5, 0.5), modifier='SUBSURF')         # disabled, cage + level
+    shelf = bpy.data.collections.new("Shelf")
+    scene.collection.children.link(shelf)
+    kept = box("Kept", (0, -0.5, 0.5), collection=shelf)             # its collection disabled
+    holder = bpy.data.objects.new("Holder", None)
+    scene.collection.objects.link(holder)
+    holder.location = (0, 0, 1)
+    child = box("Child", (0, 0, 0.2))
+    child.parent = holder
+    lamp = bpy.data.objects["POINT"]
+    shown = export.export_scene()
+    held.hide_set(True)
+    for ob in (plain, smooth, child, lamp):
+        ob.hide_viewport = True
+    shelf.hide_viewport = True
+    bpy.context.view_layer.update()
+    assert not any(ob.visible_get() for ob in (held, plain, smooth, kept, child, lamp))
+    hidden = export.export_scene()
+    assert sorted(m.name for m in hidden.visible_meshes) == sorted(m.name for m in shown.meshes) and not hidden.warnings
+    engine = addon.bake.load_engine()
+    assert addon.bake.diff_exports(shown, addon.bake.align_export(shown, hidden), engine) == []
+    assert hidden.mesh("Held").positions.shape == (16, 3)              # solidified
+    assert hidden.mesh("Smooth").refine == "catmull_clark" and len(hidden.mesh("Smooth").positions) == 8
+    # Moved while disabled: from their stored location, and their parent's evaluated place.
+    plain.location.x = -0.6
+    holder.location.x = 0.3
+    lamp.location.z = 2.5
+    bpy.context.view_layer.update()
+    moved = export.export_scene()
+    np.testing.assert_allclose(moved.mesh("Plain").transform[:3, 3], (-0.6, 0, 0.5), atol=1e-6)
+    np.testing.assert_allclose(moved.mesh("Child").transform[:3, 3], (0.3, 0, 1.2), atol=1e-6)
+    np.testing.assert_allclose(moved.light("POINT").position, (0, 0, 2.5), atol=1e-6)
+    # Baked with all of them hidden, the plane gets the light it gets with them shown (within the
+    # solver's noise: the objects come in another order).
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    lit_hidden = addon.writeback.read_mesh(plane.data).copy()
+    assert addon.writeback.read_mesh(held.data) is not None
+    held.hide_set(False)
+    for ob in (plain, smooth, child, lamp, shelf):
+        ob.hide_viewport = False
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    np.testing.assert_allclose(lit_hidden, addon.writeback.read_mesh(plane.data), rtol=1e-3)
+
+
+@pytest.mark.parametrize("what, why", [("modifier", "its modifier Solidify"), ("shape keys", "its shape keys"),
+                                       ("animation", "the animation, constraints or physics of Box"),
+                                       ("bone parent", "its parenting to Rig (bone)")])
+def test_an_object_disabled_in_viewports_that_only_an_evaluation_gives_is_named(export, empty_scene, what, why):
+    ob = box("Box", (0, 0, 0.5))
+    if what == "modifier":
+        ob.modifiers.new("Solidify", 'SOLIDIFY')
+    elif what == "shape keys":
+        ob.shape_key_add(name="Basis")
+    elif what == "animation":
+        ob.keyframe_insert("location", frame=1)
+    else:
+        rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+        empty_scene.collection.objects.link(rig)
+        ob.parent, ob.parent_type = rig, 'BONE'
+    ob.hide_viewport = True
+    sx = export.export_scene()
+    assert [m.name for m in sx.meshes] == []
+    [w] = sx.warnings
+    assert w.startswith("'Box' is disabled in viewports but renders") and why in w and "Enable it in viewports" in w
+
+
+def test_instanced_meshes_are_named_in_a_warning(addon, tmp_path, plane_and_lamp):
+    """They light the scene, but their mesh, shared, holds no colours of their own: local and linked
+    collection instances alike."""
+    scene, plane = plane_and_lamp
+    source = bpy.data.collections.new("Props")
+    box("Crate", (0, 0, 0), collection=source)
+    library = str(tmp_path / "props.blend")
+    bpy.data.libraries.write(library, {source})
+    scene.collection.children.link(source)
+    source.hide_render = True                        # shown through its instances only
+    with bpy.data.libraries.load(library, link=True) as (_, linked):
+        linked.collections = ["Props"]
+    for name, collection, x in (("Here", source, 0.5), ("There", linked.collections[0], -0.5)):
+        holder = bpy.data.objects.new(name, None)
+        holder.instance_type, holder.instance_collection = 'COLLECTION', collection
+        holder.location = (x, 0, 0.5)
+        scene.collection.objects.link(holder)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    warnings = scene.radiosity.last_warnings
+    assert "instanced meshes light the scene but get no colours" in warnings
+    assert "Here (Crate)" in warnings and "There (Crate)" in warnings and "Make Instances Real" in warnings
+    assert {m.name for m in addon.export.export_scene().visible_meshes} == {"Plane", "Crate[0]", "Crate[1]"}
+
+
+@pytest.mark.parametrize("where", ["vertex 1e30", "vertex inf", "scale 1e20"])
+def test_a_vertex_absurdly_far_is_an_error_naming_its_object(addon, where, plane_and_lamp):
+    """Instead of a black bake blamed on the lamps (the scene's size sets the engine's tolerances)."""
+    scene, plane = plane_and_lamp
+    far = box("Far", (0, 0, 0.5))
+    if where == "vertex 1e30":
+        far.data.vertices[0].co.x = 1e30
+    elif where == "vertex inf":
+        far.data.vertices[0].co.x = float("inf")   # stored as FLT_MAX
+    else:
+        far.scale = (1e20, 1, 1)
+    with pytest.raises(RuntimeError, match=r"object 'Far': a vertex lies \S+ m from the world origin, past 1e\+15 m"):
+        bpy.ops.radiosity.bake()
+    assert plane.data.color_attributes.get("Radiosity") is None
+
+
+def test_a_scene_far_from_the_origin_still_bakes(addon, plane_and_lamp):
+    """The limit is on absurd coordinates, not on where a scene stands: the engine works about its centre."""
+    scene, plane = plane_and_lamp
+    for ob in scene.objects:
+        ob.location.x += 1e6
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    assert addon.writeback.read_mesh(plane.data)[:, :3].max() > 0
+
+
+def test_open_meshes_are_information_not_a_warning(addon, plane_and_lamp):
+    """A floor plane is lit on both sides, as Cycles lights it: said among the effects, not as a
+    warning; a closed box is not named, one with a flipped face is (the engine solves its inside too)."""
+    scene, plane = plane_and_lamp
+    box("Closed", (0.5, 0, 0.5))
+    flipped = box("Flipped", (-0.5, 0, 0.5))
+    bm = bmesh.new()
+    bm.from_mesh(flipped.data)
+    bm.faces.ensure_lookup_table()
+    bmesh.ops.reverse_faces(bm, faces=[bm.faces[0]])
+    bm.to_mesh(flipped.data)
+    bm.free()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    p = scene.radiosity
+    assert "open" not in p.last_warnings and "manifold" not in p.last_warnings
+    assert "both sides of open meshes or ones with flipped faces (Plane, Flipped)" in p.last_effects
