@@ -139,7 +139,7 @@ def finish(context, jobs, results, animation, report):
     incremental = [j for j in jobs if j.incremental]
     report({'INFO'}, f"Radiosity: baked {len(written)} object(s)"
            + (f", {len(jobs)} frames ({len(incremental)} incremental)" if animation else "")
-           + f" in {props.last_seconds:.2f} s")
+           + f" in {props.last_seconds:.2f} s; simulated: {props.last_effects}")
     return written
 
 

@@ -105,7 +105,7 @@ def test_bake_sample(addon, name, frame):
         assert v[:, :3].std() > 0 or ob.name == "Light", ob.name
     p = scene.radiosity
     assert p.has_results and p.last_seconds > 0 and p.last_patches > 0 and p.last_points > 0
-    assert p.last_rays > 0 and "emission" in p.last_effects or "lamps" in p.last_effects
+    assert p.last_rays > 0 and ("emission" in p.last_effects or " lamp" in p.last_effects)
     assert 1.1 < p.last_relaxation < 1.25     # automatic: the samples send back 0.47-0.65 of a shot
     if name == "subsurf_room":
         assert "Catmull-Clark" in p.last_effects
@@ -438,6 +438,22 @@ class _FakeLayout:
 
     def __setattr__(self, name, value):
         object.__setattr__(self, name, value)
+
+
+def test_the_bake_says_what_it_simulated_and_what_it_left_out(addon):
+    """The report and the panel list the light the scene calls for, counted, and what a diffuse bake
+    leaves out."""
+    scene, ob = empty_with_plane(world=(0.1, 0.1, 0.1))
+    ld = bpy.data.lights.new("Sun", 'SUN')
+    scene.collection.objects.link(bpy.data.objects.new("Sun", ld))
+    infos = []
+    addon.operators.finish(bpy.context, *addon.operators.bake_frames(bpy.context, [scene.frame_current], False),
+                           False, lambda kind, text: infos.append(text) if kind == {'INFO'} else None)
+    effects = scene.radiosity.last_effects
+    assert effects.startswith("1 point lamp, 1 sun lamp, world light")
+    assert "diffuse interreflection" in effects and effects.endswith("(a diffuse bake)")
+    assert "emission" not in effects and "Catmull-Clark" not in effects
+    assert infos and infos[-1].endswith("simulated: " + effects)
 
 
 def test_panels_draw(addon):
