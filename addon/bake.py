@@ -510,26 +510,27 @@ SECONDS_PER_RAY = 4.3e-8
 
 def scene_measure(scene):
     """(approximate total surface area, scene diagonal, light count) from object bounding boxes:
-    cheap enough for a panel's draw()."""
-    lo = np.full(3, np.inf)
-    hi = np.full(3, -np.inf)
-    area = 0.0
-    lights = 0
-    for ob in scene.objects[:5000]:
-        if ob.hide_render:
-            continue
-        if ob.type == 'LIGHT':
-            lights += 1
-            continue
-        if ob.type not in exporter.GEOMETRY:
-            continue
-        M = np.array(ob.matrix_world, np.float64)
-        bb = np.array([tuple(c) for c in ob.bound_box], np.float64) @ M[:3, :3].T + M[:3, 3]
-        lo = np.minimum(lo, bb.min(0))
-        hi = np.maximum(hi, bb.max(0))
-        d = np.abs(np.array(ob.dimensions, np.float64))
-        area += 2.0 * (d[0] * d[1] + d[1] * d[2] + d[0] * d[2]) if d.min() > 1e-9 else d.max() ** 2
-    diag = float(np.linalg.norm(hi - lo)) if np.isfinite(lo).all() else 0.0
+    cheap enough for a panel's draw() (every object at once through foreach_get: one at a time,
+    5,000 objects took 115 ms a redraw)."""
+    obs = scene.objects
+    n = len(obs)
+    kinds = np.array([ob.type for ob in obs], dtype="U16")
+    hidden = np.zeros(n, bool)
+    obs.foreach_get("hide_render", hidden)
+    lights = int(np.count_nonzero((kinds == 'LIGHT') & ~hidden))
+    solid = np.isin(kinds, exporter.GEOMETRY) & ~hidden
+    if not solid.any():
+        return 0.0, 0.0, lights
+    def each(name, size):
+        out = np.empty(n * size, np.float32)
+        obs.foreach_get(name, out)
+        return out.reshape(n, -1)[solid].astype(np.float64)
+    M = each("matrix_world", 16).reshape(-1, 4, 4).transpose(0, 2, 1)   # stored by columns
+    bb = np.einsum("oij,okj->oki", M[:, :3, :3], each("bound_box", 24).reshape(-1, 8, 3)) + M[:, None, :3, 3]
+    diag = float(np.linalg.norm(bb.max((0, 1)) - bb.min((0, 1))))
+    d = np.abs(each("dimensions", 3))
+    boxes = 2.0 * (d[:, 0] * d[:, 1] + d[:, 1] * d[:, 2] + d[:, 0] * d[:, 2])
+    area = float(np.where(d.min(1) > 1e-9, boxes, d.max(1) ** 2).sum())
     return area, diag, lights
 
 
