@@ -59,6 +59,7 @@ def engine_settings(props, engine=None):
     s.threshold = float(props.threshold)
     s.relaxation = 0.0 if props.auto_relaxation else float(props.relaxation)   # the engine's 0: automatic
     s.exact_near_direct = bool(props.exact_near_direct)
+    s.exact_near_reflected = bool(props.exact_near_reflected)
     s.db_cache_mb = float(props.db_cache_mb)
     s.max_patches = int(props.max_patches)
     return s

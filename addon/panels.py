@@ -76,6 +76,9 @@ def draw_settings(layout, context):
     row.active = not props.auto_relaxation
     row.prop(props, "relaxation")
     layout.prop(props, "exact_near_direct")
+    row = layout.row()
+    row.active = props.exact_near_direct
+    row.prop(props, "exact_near_reflected")
     layout.prop(props, "db_cache_mb")
     layout.prop(props, "max_patches")
 

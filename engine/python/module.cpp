@@ -178,6 +178,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def_readwrite("threshold", &Settings::threshold)
       .def_readwrite("relaxation", &Settings::relaxation)
       .def_readwrite("exact_near_direct", &Settings::exact_near_direct)
+      .def_readwrite("exact_near_reflected", &Settings::exact_near_reflected)
       .def_readwrite("max_shots", &Settings::max_shots)
       .def_readwrite("max_patches", &Settings::max_patches)
       .def_readwrite("db_cache_mb", &Settings::db_cache_mb);

@@ -121,7 +121,8 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
       light_changed = light_changed || mesh.emits(q);
   }
-  if (light_changed) near_direct.reset();
+  // The reflected light every point's surroundings send changes with any change.
+  if (light_changed || settings.exact_near_reflected) near_direct.reset();
   if (changes.world) change_world(*changes.world);
   for (const auto& [i, l] : changes.lamps) change_lamp(i, l);
   for (const auto& [i, m] : changes.materials) change_material(i, m);

@@ -42,6 +42,7 @@ Settings Settings::preset(const std::string& name) {
     s.samples_indirect = 64;
     s.patch_size_relative = 1.0 / 128.0;
     s.threshold = 1e-4;
+    s.exact_near_reflected = true;
   } else {
     throw std::invalid_argument("unknown quality preset '" + name +
                                 "' (draft, default, high, reference)");

@@ -140,7 +140,8 @@ std::vector<double> Solver::Impl::summed_power() const {
 }
 
 std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>& radiance, bool reflected,
-                                                 int samples, double scale, const std::vector<char>* only) const {
+                                                 int samples, double scale, const std::vector<char>* only,
+                                                 int far_samples) const {
   std::vector<Source> out;
   for (size_t s = 0; s < shooters.size(); ++s) {
     if (only && !(*only)[s]) continue;
@@ -150,7 +151,8 @@ std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>&
     for (int i = n.begin; i < n.end && !any; ++i)
       for (const dvec3& v : radiance[tree.order[i]]) any |= abs_sum(v) > 0;
     if (!any) continue;
-    Shot shot = cluster_shot(mesh, tree, vis.get(), &shot_cache, node, radiance, samples, scale, settings.near_factor);
+    Shot shot =
+        cluster_shot(mesh, tree, vis.get(), &shot_cache, node, radiance, samples, scale, settings.near_factor, far_samples);
     shot.reflected = reflected;
     out.push_back(shot_source(std::move(shot), int(s), {n.centroid, n.radius}));
   }

@@ -116,9 +116,10 @@ struct Solver::Impl {
   std::vector<Source> direct_sources(double scale = 1.0, const std::vector<char>* only = nullptr) const;
   // Reflected: what each shooter has sent so far (`shot`), through the geometry as it is now.
   std::vector<Source> reflected_sources(double scale = 1.0, const std::vector<char>* only = nullptr) const;
-  // Shots of per-patch radiance `radiance` (emitted, or `reflected`) from the shooters where it is not zero.
+  // Shots of per-patch radiance `radiance` (emitted, or `reflected`) from the shooters where it is not
+  // zero; a distant receiver takes `far_samples` of each (cluster_shot).
   std::vector<Source> patch_sources(const std::vector<CornerUnshot>& radiance, bool reflected, int samples,
-                                    double scale, const std::vector<char>* only) const;
+                                    double scale, const std::vector<char>* only, int far_samples = INT32_MAX) const;
 
   bool inject();
   std::vector<double> shooter_power() const;
@@ -159,6 +160,8 @@ struct Solver::Impl {
   void prepare_near_direct(const std::vector<int>& points) const;  // for many points, on all cores
   const NearDetail* near_detail(int patch) const;  // null if it needs none
   std::array<dvec3, 2> direct_at(const dvec3& y, const dvec3& normal) const;  // H per side
+  // H per side at y from `sources` (a point that is no receiving point's).
+  std::array<dvec3, 2> light_at(const std::vector<Source>& sources, const dvec3& y, const dvec3& normal) const;
   std::array<dvec3, 2> direct_now(int point) const;  // the solver's direct H at a point, per side
   // After an update that moved, deformed, showed or hid `objects` (in `zones`) and changed no light:
   // keeps what near_direct worked out where it still holds, forgets the rest.

@@ -223,26 +223,35 @@ def test_a_bad_addition_is_refused_whole():
     assert np.array_equal(values(solver, ids), before)
 
 
-def rug_room(world, n=10):
+def rug_room(world, reflected=False, n=10):
     """The changing room at the default preset's sampling with a grid of n x n quads on its floor, so
-    that many reported points have near direct light worked out (Settings.exact_near_direct)."""
+    that many reported points have near direct light worked out (Settings.exact_near_direct), and
+    with `reflected` the reflected light too (Settings.exact_near_reflected), at draft's sampling:
+    at the default's, a read took 30 s."""
     scene, ids, cube = changing_room(dict(ROOM_STATE, world=world), patch_size=0.35)
     x, y = np.meshgrid(np.linspace(-0.95, 0.95, n + 1), np.linspace(-0.95, 0.95, n + 1))
     corners = np.stack([x.ravel(), y.ravel(), np.full(x.size, 0.002)], 1)
     i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
     quads = np.stack([i, i + 1, i + n + 2, i + n + 1], -1).astype(np.int32)
     rug = scene.add_mesh(corners, np.full(n * n, 4, np.int32), quads.ravel(), np.zeros(n * n, np.int32))
-    solver = engine.Solver(scene, settings("default", 1e-2))
+    s = settings("draft" if reflected else "default", 1e-2)
+    s.exact_near_direct = True
+    s.exact_near_reflected = reflected
+    solver = engine.Solver(scene, s)
     solver.solve()
     return solver, ids + [rug], cube
 
 
-# (world, bound): without a sky, bit-identical; a sky's light is let pass far from the move (near_direct.cpp)
-@pytest.mark.parametrize("world, bound", [((0.0, 0.0, 0.0), 0.0), (ROOM_STATE["world"], 2e-5)])
-def test_near_direct_light_kept_across_moves_equals_it_worked_out_anew(world, bound):
-    kept, ids, cube = rug_room(world)
+# (world, reflected, n, bound): without a sky, bit-identical; a sky's light is let pass far from the
+# move (near_direct.cpp); the reflected light every point's surroundings send changes with any move,
+# and is worked out anew (on a coarser rug: it costs much more).
+@pytest.mark.parametrize("world, reflected, n, bound", [((0.0, 0.0, 0.0), False, 10, 0.0),
+                                                        (ROOM_STATE["world"], False, 10, 2e-5),
+                                                        ((0.0, 0.0, 0.0), True, 2, 0.0)])
+def test_near_direct_light_kept_across_moves_equals_it_worked_out_anew(world, reflected, n, bound):
+    kept, ids, cube = rug_room(world, reflected, n)
     read = lambda solver: np.concatenate([solver.corner_radiance(i) for i in ids])  # noqa: E731
-    anew, _, _ = rug_room(world)  # the same states, its near direct light read only at the end
+    anew, _, _ = rug_room(world, reflected, n)  # the same states, its near light read only at the end
     read(kept)
     for place in [(0.2, -0.4, 0.3), (-0.5, 0.5, 0.8)]:
         for solver in (kept, anew):

@@ -117,7 +117,8 @@ def test_rectangle_lamp_is_radiance_times_form_factor():
     assert radiance_near(solver, obj, (0, 0, 0))[1][0] == 0.0
 
 
-def test_box_standing_on_the_floor_is_lit_at_its_foot():
+@pytest.mark.parametrize("reflected", [False, True])
+def test_box_standing_on_the_floor_is_lit_at_its_foot(reflected):
     # Sun straight down: the box's sides see only the lit floor, which fills half of what a point at
     # their foot sees (form factor 1/2 as the point nears the floor), so the foot's radiance is
     # rho_box / 2 times the floor's, rho E / pi, plus under 7% the floor gets back from the box. The
@@ -130,7 +131,9 @@ def test_box_standing_on_the_floor_is_lit_at_its_foot():
     box.add_box((0.13, 0.21, 0.4), (0.8, 0.8, 0.8), scene.add_material((box_rho,) * 3), angle=0.3)
     del box.faces[0], box.materials[0]  # standing open on the floor, as the samples' boxes do
     obj = box.add_to(scene, refine="bilinear", patch_size=0.5)
-    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    settings = engine.Settings.preset("default")
+    settings.exact_near_reflected = reflected  # the floor's light at the pieces the foot sees, all of it
+    solver = engine.Solver(scene, settings)
     solver.solve()
     corners = np.array(box.positions)[np.concatenate(box.faces)]
     foot = solver.corner_radiance(obj)[np.abs(corners[:, 2]) < 1e-9, 0]
@@ -153,8 +156,8 @@ def lit_wedge_form_factor(height, inset, a, n=2000):
     return float((kernel * (u > -a * v)).sum() * (math.pi / n) * (math.pi / 2 / n))
 
 
-@pytest.mark.parametrize("patch_size", [0.5, 0.2, 0.1])
-def test_foot_where_a_shadow_edge_starts_sees_the_lit_floor_exactly(patch_size):
+@pytest.mark.parametrize("patch_size, reflected", [(0.5, False), (0.2, False), (0.1, False), (0.2, True)])
+def test_foot_where_a_shadow_edge_starts_sees_the_lit_floor_exactly(patch_size, reflected):
     # A slanting sun: the box's shadow edge leaves its corner (1, -1) along (-a, -1), in the box's
     # frame, so the foot of its -y face sees the floor lit on one side of that edge and dark on the
     # other. Patches straddle the edge at any size, and interpolating them gives 1.3-2.1 times the
@@ -174,7 +177,9 @@ def test_foot_where_a_shadow_edge_starts_sees_the_lit_floor_exactly(patch_size):
     del box.faces[0], box.materials[0]
     obj = box.add_to(scene, refine="bilinear", patch_size=patch_size)
     expected = box_rho * RHO * 3 * -travel[2] / math.pi * lit_wedge_form_factor(1.0, 1.0, a)
-    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    settings = engine.Settings.preset("default")
+    settings.exact_near_reflected = reflected
+    solver = engine.Solver(scene, settings)
     solver.solve()
     assert solver.corner_radiance(obj)[5, 0] == pytest.approx(expected, rel=0.04)  # -y face, corner (1, -1, -1)
     # Read without it (live update while the animation plays): interpolated, as without the setting.
