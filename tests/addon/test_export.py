@@ -337,15 +337,8 @@ def box(name, location, collection=None, modifier=None):
 def plane_and_lamp(addon):
     """A 2 m plane lit by a point lamp 2 m above, draft quality; Blender's empty factory scene after
     (the modules that follow start from its defaults)."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    me = bpy.data.meshes.new("Plane")
-    me.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
-    plane = bpy.data.objects.new("Plane", me)
-    scene.collection.objects.link(plane)
-    add_lamp('POINT', energy=100.0, location=(0, 0, 2))
-    scene.radiosity.preset = 'DRAFT'
-    yield scene, plane
+    from test_addon import empty_with_plane
+    yield empty_with_plane(world=None)
     bpy.ops.wm.read_factory_settings(use_empty=True)
 
 
@@ -367,7 +360,7 @@ def test_objects_hidden_in_the_viewport_light_the_scene_as_cycles_renders_them(e
     holder.location = (0, 0, 1)
     child = box("Child", (0, 0, 0.2))
     child.parent = holder
-    lamp = bpy.data.objects["POINT"]
+    lamp = bpy.data.objects["Lamp"]
     shown = export.export_scene()
     held.hide_set(True)
     for ob in (plain, smooth, child, lamp):
@@ -389,7 +382,7 @@ def test_objects_hidden_in_the_viewport_light_the_scene_as_cycles_renders_them(e
     moved = export.export_scene()
     np.testing.assert_allclose(moved.mesh("Plain").transform[:3, 3], (-0.6, 0, 0.5), atol=1e-6)
     np.testing.assert_allclose(moved.mesh("Child").transform[:3, 3], (0.3, 0, 1.2), atol=1e-6)
-    np.testing.assert_allclose(moved.light("POINT").position, (0, 0, 2.5), atol=1e-6)
+    np.testing.assert_allclose(moved.light("Lamp").position, (0, 0, 2.5), atol=1e-6)
     # Baked with all of them hidden, the plane gets the light it gets with them shown (within the
     # solver's noise: the objects come in another order).
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
