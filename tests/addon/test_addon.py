@@ -198,12 +198,18 @@ def modal_bake(addon, animation=False, stop=None):
 
 def test_modal_bake_writes_on_success_and_nothing_on_esc_or_failure(addon, monkeypatch):
     """Each ending of the UI's bake: finished, it writes; Esc part-way through an animation (after its
-    first frame solved) or a failure of ours writes nothing and hands the UI and live update back."""
+    first frame solved) or a failure of ours writes nothing and hands the UI and live update back.
+    The colours are read in the worker too: with the exact contact light a read takes seconds."""
     live = addon.live_update
     scene = open_blend("animated_room", 1)
     scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23
+    on_main = []
+    read = addon.bake.BakeJob.colours
+    monkeypatch.setattr(addon.bake.BakeJob, "colours", lambda job, *args, **kwargs: (
+        on_main.append(threading.current_thread() is threading.main_thread()), read(job, *args, **kwargs))[1])
     result, reports, context = modal_bake(addon)
     assert result == {'FINISHED'}, reports
+    assert on_main == [False]
     obs = meshes(scene)
     baked = {ob.name: colours(ob).copy() for ob in obs}
     assert all(v is not None for v in baked.values())
