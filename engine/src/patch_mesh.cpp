@@ -132,6 +132,17 @@ std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const Refin
   return normals;
 }
 
+// How far `x` must go along `n` to come onto triangle (a, b, c), where that line crosses it ahead; 0
+// where it does not.
+double rise_onto(const dvec3& x, const dvec3& n, const dvec3& a, const dvec3& b, const dvec3& c) {
+  dvec3 e1 = b - a, e2 = c - a, p = glm::cross(n, e2);
+  double det = glm::dot(e1, p);
+  if (!(std::fabs(det) > 0)) return 0.0;
+  dvec3 s = x - a, q = glm::cross(s, e1);
+  double u = glm::dot(s, p) / det, v = glm::dot(n, q) / det, t = glm::dot(e2, q) / det;
+  return u >= 0 && v >= 0 && u + v <= 1 && t > 0 ? t : 0.0;
+}
+
 // Puts points [begin, end) at their vertices, facing the way their first corner faces, nudged
 // towards the centres of their patches. `corner_normal[slot - first_slot]` is a corner's normal.
 void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int begin, int end) {
@@ -160,6 +171,19 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
     dvec3 towards = centre_sum / double(count) - rp.position;
     double rise = glm::dot(towards, rp.normal);
     rp.position += kInwardNudge * (rise > 0 ? towards : towards - rise * rp.normal);
+    // Embree traces a quad as the triangles (v0, v1, v3) and (v2, v3, v1). Where the quad is not
+    // planar, the way to the patch centres can pass under them: a quad with one corner raised put
+    // the corners of the other diagonal under the triangle beside them, and every ray they sent hit
+    // it (black corners). The point comes up onto them along its normal.
+    double up = 0.0;
+    for (int i = pm.point_slot_begin[p]; i < pm.point_slot_begin[p + 1]; ++i) {
+      const Patch& patch = pm.patches[pm.point_slots[i] / 4];
+      const dvec3* v[4];
+      for (int c = 0; c < 4; ++c) v[c] = &pm.vertices[patch.vertex[c]];
+      up = std::max({up, rise_onto(rp.position, rp.normal, *v[0], *v[1], *v[3]),
+                     rise_onto(rp.position, rp.normal, *v[2], *v[3], *v[1])});
+    }
+    rp.position += up * rp.normal;
   }
 }
 

@@ -142,6 +142,23 @@ def test_box_standing_on_the_floor_is_lit_at_its_foot(reflected):
     assert foot.min() > 0.97 * expected and foot.max() < 1.1 * expected
 
 
+@pytest.mark.parametrize("rise", [0.0, 0.05, 0.2])
+def test_every_corner_of_a_quad_that_is_not_flat_is_lit(rise):
+    # A 1 m quad with one corner raised, under a sun straight down: Embree traces it as two
+    # triangles folded along a diagonal, and the points of the other diagonal, nudged towards the
+    # quad's centre, went under the triangle beside them and got nothing. Flat-shaded, each corner
+    # takes the quad's normal, half the cross product of its diagonals: (rise, -rise, 2) here.
+    scene = engine.Scene()
+    scene.add_sun_light((0, 0, -1), (3, 3, 3))
+    quad = Mesh()
+    quad.add_face([(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, rise)], scene.add_material((RHO,) * 3))
+    obj = quad.add_to(scene)
+    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    solver.solve()
+    cos = 2 / math.sqrt(4 + 2 * rise ** 2)
+    assert solver.corner_radiance(obj)[:, 0] == pytest.approx(np.full(4, RHO * 3 * cos / math.pi), rel=1e-3)
+
+
 def lit_wedge_form_factor(height, inset, a, n=2000):
     """Form factor, from a point `height` over the floor on a wall facing +v and `inset` along it
     (towards -u) from a corner at the origin, to the floor where u > -a v (v > 0): the floor beside
@@ -462,7 +479,8 @@ def test_a_smooth_mesh_whose_faces_disagree_on_the_front_stays_finite(level):
     # shows in the balance: light held and absorbed past what landed, or not finite.
     balance = solver.power_balance()
     assert all(math.isfinite(v) for v in balance.values())
-    assert 0 <= balance["unshot"] <= settings.threshold * balance["injected"]
+    # Signed: over-relaxation leaves the patches it shot owing a little (negative unshot).
+    assert abs(balance["unshot"]) <= settings.threshold * balance["injected"]
     assert 0.45 * balance["injected"] < balance["absorbed"] <= balance["injected"]
 
 
