@@ -69,6 +69,7 @@ class MeshExport:
     corner_reflectance: np.ndarray = None  # (K,3) per exported corner where a material has a texture
     corner_emission: np.ndarray = None     # (K,3) the same where a material's emission has one
     object_type: str = 'MESH'     # the Blender object's: the others light the scene but hold no colours
+    deforms: bool = False         # modifiers or shape keys may bend it (the engine keeps its flat faces' points apart)
 
 
 @dataclass
@@ -533,7 +534,7 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
     return MeshExport(name or ob_eval.name, co, sizes, fv, fm.astype(np.int32),
                       np.array(matrix, np.float64), refine, level, original, matches,
                       _is_animated(orig), orig.name, smooth=smooth, corner_reflectance=rho, object_type=orig.type,
-                      corner_emission=emitted)
+                      corner_emission=emitted, deforms=orig.type == 'MESH' and bool(_deforming(orig)))
 
 
 # ----------------------------------------------------------------------------- lights
@@ -788,7 +789,7 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
             m.positions, m.face_sizes, m.face_vertices, np.asarray(m.face_materials, np.int32), m.transform,
             refine=m.refine, level=m.level, patch_size=patch_size, dynamic=bool(dyn), name=m.name,
             visible=m.visible, smooth=m.smooth, corner_reflectance=m.corner_reflectance,
-            corner_emission=m.corner_emission)
+            corner_emission=m.corner_emission, deforms=m.deforms)
     for l in sx.lights[first[2]:]:
         getattr(s, f"add_{l.kind}_light")(*lamp_args(l))
     if sx.world_map is not None:

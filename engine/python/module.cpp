@@ -197,7 +197,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
               std::optional<Array<double>> transform, const std::string& refine, int level,
               double patch_size, bool dynamic, const std::string& name, bool visible,
               std::optional<Array<bool>> smooth, std::optional<Array<double>> corner_reflectance,
-              std::optional<Array<double>> corner_emission) {
+              std::optional<Array<double>> corner_emission, bool deforms) {
              MeshDesc mesh;
              mesh.name = name;
              mesh.positions = points(positions, "positions");
@@ -209,6 +209,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
              mesh.level = level;
              mesh.patch_size = patch_size;
              mesh.dynamic = dynamic;
+             mesh.deforms = deforms;
              mesh.visible = visible;
              if (smooth)
                for (bool b : flat(*smooth)) mesh.face_smooth.push_back(b);
@@ -221,12 +222,14 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("transform") = py::none(), py::arg("refine") = "none", py::arg("level") = 0,
            py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "",
            py::arg("visible") = true, py::arg("smooth") = py::none(), py::arg("corner_reflectance") = py::none(),
-           py::arg("corner_emission") = py::none(),
+           py::arg("corner_emission") = py::none(), py::arg("deforms") = false,
            "visible=False: kept (refined) but out of the lighting until Solver.set_visible(id, True); "
            "smooth: per face, shaded smooth (None: smooth for catmull_clark, flat otherwise); "
            "corner_reflectance: (face corners, 3) in face_vertices' order, in place of the materials' "
            "reflectance (a texture sampled at the corners; None: the materials'); corner_emission: the same "
-           "for the emitted radiance")
+           "for the emitted radiance; deforms: its flat faces will be bent (Solver.set_positions), so they "
+           "keep a receiving point each at every vertex (without, bending faces that met flat apart is "
+           "refused)")
       .def("add_point_light",
            [](SceneDesc& s, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
              s.lamps.push_back(point_lamp(position, intensity, radius));

@@ -189,8 +189,10 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
 
 // Groups the corners of an object's patches (slots from `first_slot` on) at each vertex into
 // receiving points by normal (the first corner of a group sets its normal), appends them, then
-// places them. `corner_normals` holds the object's corners' normals.
-void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals, int first_slot, ObjectPatches& obj) {
+// places them. `corner_normals` holds the object's corners' normals, `apart` a key per corner:
+// corners with different keys never share a point.
+void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals, const std::vector<int>& apart,
+                 int first_slot, ObjectPatches& obj) {
   int slots = int(pm.patches.size()) * 4;
   int count = slots - first_slot;
   auto vertex_of = [&](int s) { return pm.patches[s / 4].vertex[s % 4]; };
@@ -200,6 +202,7 @@ void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals, int fi
   int first_point = int(pm.points.size());
   std::vector<int> slot_point(count, -1);
   std::vector<dvec3> point_normal;
+  std::vector<int> point_key;
   for (int i = 0; i < count;) {
     int vertex = vertex_of(by_vertex[i]);
     int vertex_first = int(point_normal.size());
@@ -209,10 +212,12 @@ void make_points(PatchMesh& pm, const std::vector<dvec3>& corner_normals, int fi
       const dvec3& n = corner_normals[s];
       int chosen = -1;
       for (int p = vertex_first; p < int(point_normal.size()) && chosen < 0; ++p)
-        if (glm::length(n) == 0 || glm::dot(point_normal[p], n) > kSameNormal) chosen = p;
+        if (point_key[p] == apart[s] && (glm::length(n) == 0 || glm::dot(point_normal[p], n) > kSameNormal))
+          chosen = p;
       if (chosen < 0) {
         chosen = int(point_normal.size());
         point_normal.push_back(n);
+        point_key.push_back(apart[s]);
       }
       slot_point[s] = first_point + chosen;
     }
@@ -376,7 +381,16 @@ void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>
   obj.vertex_end = int(pm.vertices.size());
   std::vector<dvec3> normals = set_geometry(pm, mesh, refined, obj);
   obj.corner_slot = corner_slots(mesh, refined, obj);
-  make_points(pm, normals, 4 * obj.patch_begin, obj);
+  // A deforming object's flat faces keep their corners apart: faces that meet flat at a vertex now
+  // may be bent apart later, and a point has one normal (refine_object refuses that).
+  std::vector<int> apart(normals.size(), -1);
+  if (mesh.deforms)
+    for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
+      int face = refined.quad_face[q - obj.patch_begin];
+      if (!shaded_smooth(mesh, refined, obj, q, pm.patches[q].area))
+        std::fill_n(apart.begin() + 4 * (q - obj.patch_begin), 4, face);
+    }
+  make_points(pm, normals, apart, 4 * obj.patch_begin, obj);
   if (obj.patch_end > obj.patch_begin) obj.enclosed_side = enclosed_side(pm, mesh, obj);
   enclose(pm, obj, int(pm.objects.size()));
   pm.objects.push_back(std::move(obj));

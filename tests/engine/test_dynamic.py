@@ -412,29 +412,54 @@ def test_bad_changes_are_refused_and_leave_the_solution():
     assert solver.update()["converged"]  # nothing pending: nothing changes
 
 
-def test_a_deformation_that_opens_a_crease_is_refused():
-    """A receiving point holds the corners that met facing one way at its vertex: bent apart, they
-    would share one normal, so the engine refuses (the add-on then adds the object anew); bent
-    without a crease, the deformation is taken."""
+def rug_of_four(deforms):
+    """The changing room with a flat rug of 2 x 2 faces sharing their vertices over its floor, and
+    the rug's vertices with the middle one raised into a tent (four creases)."""
     scene, ids, _ = changing_room(ROOM_STATE)
     rug = Mesh()
     for x in (-0.4, 0.0):
         for y in (-0.4, 0.0):
             rug.add_face([(x, y, 0.01), (x + 0.4, y, 0.01), (x + 0.4, y + 0.4, 0.01), (x, y + 0.4, 0.01)], 0)
     rug.weld()
-    rug_id = rug.add_to(scene, dynamic=True)
-    solver = engine.Solver(scene, settings("draft"))
-    solver.solve()
-    before = values(solver, ids)
+    rug_id = rug.add_to(scene, dynamic=True, deforms=deforms)
     flat = np.array(rug.positions, float)
     tent = flat.copy()
     tent[np.all(flat[:, :2] == 0.0, axis=1), 2] += 0.2                       # the middle vertex up
+    return scene, ids + [rug_id], rug_id, flat, tent
+
+
+def test_a_deformation_that_opens_a_crease_is_refused():
+    """A receiving point holds the corners that met facing one way at its vertex: bent apart, they
+    would share one normal, so the engine refuses (the add-on then solves anew); bent without a
+    crease, the deformation is taken."""
+    scene, ids, rug_id, flat, tent = rug_of_four(deforms=False)
+    solver = engine.Solver(scene, settings("draft"))
+    solver.solve()
+    before = values(solver, ids)
     solver.set_positions(rug_id, tent)
     with pytest.raises(ValueError, match="crease"):
         solver.update()
     assert np.array_equal(values(solver, ids), before)
     solver.set_positions(rug_id, flat + (0.0, 0.0, 0.2))                     # lifted whole: no crease
     assert solver.update()["converged"]
+
+
+def test_a_deforming_objects_flat_faces_bend_apart_in_place():
+    """Declared deforming, the rug's faces keep a point each at the vertices they share, so the
+    tent is taken as an update, and lands where a fresh solve of the tent does."""
+    s = settings("draft", 1e-4)
+    scene, ids, rug_id, flat, tent = rug_of_four(deforms=True)
+    solver = engine.Solver(scene, s)
+    solver.solve()
+    solver.set_positions(rug_id, tent)
+    assert solver.update()["converged"]
+    scene, _, rug_id, _, _ = rug_of_four(deforms=True)
+    reference = engine.Solver(scene, s)
+    reference.set_positions(rug_id, tent)
+    reference.update()
+    reference.solve()
+    got, want = values(solver, ids), values(reference, ids)
+    assert relative_rms(got, want) < 1e-3
 
 
 def test_changes_before_the_first_solve_are_just_applied():

@@ -36,6 +36,9 @@ struct MeshDesc {
   int level = 0;           // Catmull-Clark steps
   double patch_size = 0.0; // Bilinear target size in world units; 0 = Settings decides
   bool dynamic = false;    // will move or deform later: kept as an instance in the ray-tracing scene
+  // Will deform later (modifiers, shape keys): at each vertex its flat faces keep a receiving point
+  // each, which a deformation that bends them apart cannot pull into two normals (make_points).
+  bool deforms = false;
   bool visible = true;     // takes part in the lighting; a hidden object is kept (refined, out of
                            // the ray-tracing scene) so it can appear later without a new Solver
   // Per face: shaded smooth (Blender's Shade Smooth), with normals interpolated from the vertices'
