@@ -11,6 +11,8 @@ playback below (default 3; 0 skips it). Scenes:
   room_20k       a 4 m room of ~20k vertices, one 0.4 m box moving across the floor, lamp fixed
   room_10k       the same room at ~10k vertices: does playback with write-back keep 24 fps?
   room_10k_tex   the same with a 4k image texture on the floor (a generated UV grid)
+  wave_10k       room_10k with a flat-shaded 2 m sheet (24 x 24 faces) over the floor under a Wave
+                 modifier: its faces bend apart at their shared vertices every frame
 
 Incremental = what live update does on a frame change (export, diff, Solver.update(), colours,
 write-back) through the add-on's own handler; "update" is the engine's Solver.update() alone,
@@ -83,10 +85,11 @@ def grid(origin, u, v, nu, nv):
     return verts, quads
 
 
-def room_scene(vertices, texture=0):
+def room_scene(vertices, texture=0, wave=False):
     """A 4 x 4 x 3 m room split into quads (about `vertices` vertices), a point lamp under the
     ceiling and a 0.4 m box crossing the floor over frames 1-24 (linear keys); with `texture`, a
-    texture x texture image on the floor's colour, over UVs projected from above."""
+    texture x texture image on the floor's colour, over UVs projected from above; with `wave`, a
+    flat-shaded sheet 0.3 m over the floor, rippled by a Wave modifier."""
     sc = ms.new_scene()
     sc.frame_start, sc.frame_end = 1, 24
     W, H = 4.0, 3.0
@@ -137,6 +140,11 @@ def room_scene(vertices, texture=0):
     b.keyframe_insert("location", frame=24)
     ms.linear_keys(b)
     ms.lamp("Lamp", 'POINT', (0.0, -0.5, 2.7), energy=300.0, shadow_soft_size=0.0)
+    if wave:
+        vs, qs = grid((-1.0, -1.0, 0.3), (2.0, 0, 0), (0, 2.0, 0), 24, 24)
+        sheet = ms.mesh_object("Sheet", vs, qs, [ms.diffuse("Sheet", (0.6, 0.6, 0.3))])
+        mod = sheet.modifiers.new("Wave", 'WAVE')
+        mod.height, mod.width, mod.speed, mod.time_offset = 0.1, 0.6, 0.05, -20.0
     sc.frame_set(1)
     return sc
 
@@ -291,7 +299,8 @@ def main():
     print(f"Radiosity dynamic update bench: preset {PRESET.lower()}, {FRAMES} frames a scene, "
           f"{FULL_REPEATS} full re-solves a scene; medians; 2 cores (shared)")
     makers = {"animated_room": animated_room, "room_20k": lambda: room_scene(20000),
-              "room_10k": lambda: room_scene(10000), "room_10k_tex": lambda: room_scene(10000, 4096)}
+              "room_10k": lambda: room_scene(10000), "room_10k_tex": lambda: room_scene(10000, 4096),
+              "wave_10k": lambda: room_scene(10000, wave=True)}
     rows = [run(name, makers[name]) for name in SCENES]
     table(f"{'scene':14} {'vertices':>8} {'points':>7} {'full s':>8} {'update s':>9} {'ratio':>6} "
           f"{'touched':>8} {'live s':>8} {'write ms':>8} {'frame s':>8} {'fps':>6} {'baked fps':>9}",
