@@ -11,7 +11,7 @@ namespace {
 constexpr int kAzimuthSteps = 16;
 
 // A patch corner's facet: the plane of its two edges at the corner.
-struct Facet {
+struct CornerFacet {
   dvec3 normal{0.0};  // unit; zero if the edges are parallel
   double azimuth = 0.0, width = 0.0;  // the corner's angle, projected on the point's tangent plane
 };
@@ -52,7 +52,7 @@ CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, i
   dvec3 t2 = glm::cross(n, t1);
   auto azimuth = [&](const dvec3& d) { return std::atan2(glm::dot(d, t2), glm::dot(d, t1)); };
 
-  std::vector<Facet> facets(end - begin);
+  std::vector<CornerFacet> facets(end - begin);
   std::vector<int> live;  // slots of patches with area
   double share_sum = 0.0;
   bool smooth = false;
@@ -63,7 +63,7 @@ CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, i
     int c = slot % 4;
     const dvec3& at = pm.vertices[patch.vertex[c]];
     dvec3 next = pm.vertices[patch.vertex[(c + 1) % 4]] - at, prev = pm.vertices[patch.vertex[(c + 3) % 4]] - at;
-    Facet& f = facets[i - begin];
+    CornerFacet& f = facets[i - begin];
     dvec3 m = glm::cross(next, prev);
     if (glm::length(m) > 0) f.normal = glm::normalize(m);
     // Counter-clockwise about the normal from the edge to the next corner to the edge to the
@@ -99,7 +99,7 @@ CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, i
   };
   std::array<double, 2> hidden{0.0, 0.0}, own_sum{0.0, 0.0};
   for (size_t j = 0; j < count; ++j) {
-    const Facet& fj = facets[live[j]];
+    const CornerFacet& fj = facets[live[j]];
     if (fj.normal == dvec3(0.0)) continue;
     double step = fj.width / kAzimuthSteps, weight = step / (2 * M_PI);
     std::array<double, 2> seen{0.0, 0.0};

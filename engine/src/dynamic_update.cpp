@@ -35,7 +35,7 @@ constexpr double kRestartBelow = 0.1;
 // Groups of receivers whose sources an update culls together, relative to a shooter's size.
 constexpr double kGroupRadius = 0.5;
 
-// Around the object's vertices, before (mesh) or after (refined and transformed) a move.
+// Around the object's vertices, before (mesh) or after (PlacedObject::at) a move.
 Sphere bounds_of(const std::vector<dvec3>& points, double margin) {
   dvec3 lo(INFINITY), hi(-INFINITY);
   for (const dvec3& p : points) lo = glm::min(lo, p), hi = glm::max(hi, p);
@@ -95,8 +95,8 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   for (const auto& [i, l] : changes.lamps) next.lamps.at(i) = l;
   if (changes.world) next.world = *changes.world;
   next.validate();
-  std::map<int, RefinedMesh> refined;
-  for (const auto& [o, m] : changes.meshes) refined[o] = refine_object(mesh, o, m);
+  std::map<int, PlacedObject> placed;
+  for (const auto& [o, m] : changes.meshes) placed[o] = refine_object(mesh, o, m);
   auto done = [&]() -> const SolveStats& {
     DbCache::Counts db = db_cache.take_counts();
     stats.db_hits = db.hits, stats.db_misses = db.misses;
@@ -106,7 +106,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   };
 
   if (!injected) {  // nothing gathered yet: the first solve will see the new scene
-    for (const auto& [o, m] : changes.meshes) place(o, m, refined[o]);
+    for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
     scene = std::move(next);
     return done();
   }
@@ -126,7 +126,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   if (changes.world) change_world(*changes.world);
   for (const auto& [i, l] : changes.lamps) change_lamp(i, l);
   for (const auto& [i, m] : changes.materials) change_material(i, m);
-  for (const auto& [o, m] : changes.meshes) zones.push_back(change_object(o, m, refined[o]));
+  for (const auto& [o, m] : changes.meshes) zones.push_back(change_object(o, m, placed[o]));
   keep_near_direct(objects, zones);
   if (light > 0 && !(injected_power > kRestartBelow * light)) {
     restart();
@@ -311,10 +311,10 @@ void Solver::Impl::change_material(int index, const Material& m) {
   if (!sources.empty()) gather_direct_change(sources);
 }
 
-void Solver::Impl::place(int object, const MeshDesc& m, const RefinedMesh& refined) {
+void Solver::Impl::place(int object, const MeshDesc& m, const PlacedObject& placed) {
   if (scene.meshes[object].visible || m.visible) db_cache.own(object);  // a hidden one blocks no ray
   scene.meshes[object] = m;
-  place_object(mesh, object, m, refined);
+  place_object(mesh, object, m, placed);
   tree.rebuild(mesh, object);  // as a fresh solve would cluster it there: a refit was 0.4% off a curved one
   cut_shooters();
   vis->move_object(object, mesh, m.visible);
@@ -327,18 +327,16 @@ void Solver::Impl::forget_nodes(int node) {
   shot_cache.forget(patches, node, tree.subtree_end(node));
 }
 
-Zone Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMesh& refined) {
+Zone Solver::Impl::change_object(int object, const MeshDesc& m, const PlacedObject& placed) {
   const ObjectPatches& o = mesh.objects[object];
   if (!scene.meshes[object].visible && !m.visible) {  // hidden before and after: nothing to light
-    place(object, m, refined);
+    place(object, m, placed);
     Sphere nowhere{dvec3(0.0), -INFINITY};
     return {nowhere, nowhere};
   }
   double margin = 2 * vis->epsilon();
   Sphere before = bounds_of({mesh.vertices.begin() + o.vertex_begin, mesh.vertices.begin() + o.vertex_end}, margin);
-  std::vector<dvec3> moved;
-  for (const dvec3& p : refined.positions) moved.push_back(dvec3(m.transform * glm::dvec4(p, 1.0)) - mesh.origin);
-  Sphere after = bounds_of(moved, margin);
+  Sphere after = bounds_of(placed.at, margin);
   Zone zone{before, after};
 
   // The object's own shooters, and those near enough for it to come between their own parts (what
@@ -404,7 +402,7 @@ Zone Solver::Impl::change_object(int object, const MeshDesc& m, const RefinedMes
   // index in the cut of then.
   std::vector<char> own_before = own;
   std::vector<int> shooters_before = shooters;
-  place(object, m, refined);
+  place(object, m, placed);
   flag_shooters();
   if (tree.object_root[object] >= 0) forget_nodes(tree.object_root[object]);
   for (size_t s = 0; s < shooters.size(); ++s)

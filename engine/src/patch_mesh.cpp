@@ -57,12 +57,6 @@ void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined
   }
 }
 
-// A patch's area and unit normal from its corners (half the cross product of its diagonals: exact
-// for a planar quad); both zero where it is degenerate.
-struct Facet {
-  double area = 0.0;
-  dvec3 normal{0.0};
-};
 Facet facet(const PatchMesh& pm, const dvec3& p0, const dvec3& p1, const dvec3& p2, const dvec3& p3) {
   dvec3 va = 0.5 * glm::cross(p2 - p0, p3 - p1);
   double area = glm::length(va);
@@ -70,30 +64,24 @@ Facet facet(const PatchMesh& pm, const dvec3& p0, const dvec3& p1, const dvec3& 
   return {area, va / area};
 }
 
-// The refined vertices where the transform puts them, in the mesh's frame (relative to its origin).
-std::vector<dvec3> placed(const PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined) {
-  std::vector<dvec3> at(refined.positions.size());
-  for (size_t i = 0; i < at.size(); ++i) at[i] = transform_point(mesh.transform, refined.positions[i]) - pm.origin;
-  return at;
-}
-
 // Whether patch `q` of the object takes shading normals at its corners (a smooth face, not degenerate).
 bool shaded_smooth(const MeshDesc& mesh, const RefinedMesh& refined, const ObjectPatches& obj, int q, double area) {
   return !refined.normals.empty() && area > 0 && mesh.smooth(refined.quad_face[q - obj.patch_begin]);
 }
 
-// The normals the corners of an object's patches take (4 per patch, its patches in order), its
-// vertices lying at `at` (in its order): the patch's own, or on a smooth face the shading normal.
-std::vector<dvec3> corner_normals(const PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined,
-                                  const ObjectPatches& obj, const dvec3* at) {
+// The object `obj` (its patches' vertex indices) refined to `refined` and put where `mesh`'s
+// transform puts it.
+PlacedObject place(const PatchMesh& pm, const MeshDesc& mesh, RefinedMesh refined, const ObjectPatches& obj) {
+  PlacedObject out;
+  out.at.resize(refined.positions.size());
+  for (size_t i = 0; i < out.at.size(); ++i) out.at[i] = transform_point(mesh.transform, refined.positions[i]) - pm.origin;
   glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(mesh.transform)));
-  std::vector<dvec3> normals;
-  normals.reserve(4 * (obj.patch_end - obj.patch_begin));
+  out.facets.reserve(obj.patch_end - obj.patch_begin);
+  out.normals.reserve(4 * (obj.patch_end - obj.patch_begin));
   for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
-    const Patch& patch = pm.patches[q];
     int v[4];
-    for (int c = 0; c < 4; ++c) v[c] = patch.vertex[c] - obj.vertex_begin;
-    Facet f = facet(pm, at[v[0]], at[v[1]], at[v[2]], at[v[3]]);
+    for (int c = 0; c < 4; ++c) v[c] = pm.patches[q].vertex[c] - obj.vertex_begin;
+    Facet f = facet(pm, out.at[v[0]], out.at[v[1]], out.at[v[2]], out.at[v[3]]);
     bool smooth = shaded_smooth(mesh, refined, obj, q, f.area);
     for (int c = 0; c < 4; ++c) {
       dvec3 n = f.normal;
@@ -101,35 +89,33 @@ std::vector<dvec3> corner_normals(const PatchMesh& pm, const MeshDesc& mesh, con
         dvec3 shading = normal_matrix * refined.normals[v[c]];
         if (glm::length(shading) > 0) n = glm::normalize(shading);
       }
-      normals.push_back(n);
+      out.normals.push_back(n);
     }
+    out.facets.push_back(f);
   }
-  return normals;
+  out.refined = std::move(refined);
+  return out;
 }
 
-// Places an object's vertices and patches from its refinement and transform; returns the corner
-// normals (corner_normals) that receiving points take.
-std::vector<dvec3> set_geometry(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined,
-                                ObjectPatches& obj) {
-  std::vector<dvec3> at = placed(pm, mesh, refined);
-  std::copy(at.begin(), at.end(), pm.vertices.begin() + obj.vertex_begin);
-  std::vector<dvec3> normals = corner_normals(pm, mesh, refined, obj, &pm.vertices[obj.vertex_begin]);
+// Puts an object's vertices and patches where `placed` has them.
+void set_geometry(PatchMesh& pm, const MeshDesc& mesh, const PlacedObject& placed, ObjectPatches& obj) {
+  std::copy(placed.at.begin(), placed.at.end(), pm.vertices.begin() + obj.vertex_begin);
   pm.degenerate_patches -= obj.degenerate;
   obj.degenerate = 0;
   for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
     Patch& patch = pm.patches[q];
     dvec3 corners[4];
     for (int c = 0; c < 4; ++c) corners[c] = pm.vertices[patch.vertex[c]];
-    Facet f = facet(pm, corners[0], corners[1], corners[2], corners[3]);
+    const Facet& f = placed.facets[q - obj.patch_begin];
     patch.area = f.area;
     patch.normal = f.normal;
     patch.centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
     if (f.area == 0) ++obj.degenerate;
-    patch.interior_share =
-        shaded_smooth(mesh, refined, obj, q, f.area) ? interior_share(corners, &normals[4 * (q - obj.patch_begin)]) : 1.0;
+    patch.interior_share = shaded_smooth(mesh, placed.refined, obj, q, f.area)
+                               ? interior_share(corners, &placed.normals[4 * (q - obj.patch_begin)])
+                               : 1.0;
   }
   pm.degenerate_patches += obj.degenerate;
-  return normals;
 }
 
 // How far `x` must go along `n` to come onto triangle (a, b, c), where that line crosses it ahead; 0
@@ -379,18 +365,19 @@ void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>
   add_patches(pm, mesh, refined, materials, int(pm.objects.size()), obj);
   obj.patch_end = int(pm.patches.size());
   obj.vertex_end = int(pm.vertices.size());
-  std::vector<dvec3> normals = set_geometry(pm, mesh, refined, obj);
-  obj.corner_slot = corner_slots(mesh, refined, obj);
+  PlacedObject placed = place(pm, mesh, std::move(refined), obj);
+  set_geometry(pm, mesh, placed, obj);
+  obj.corner_slot = corner_slots(mesh, placed.refined, obj);
   // A deforming object's flat faces keep their corners apart: faces that meet flat at a vertex now
   // may be bent apart later, and a point has one normal (refine_object refuses that).
-  std::vector<int> apart(normals.size(), -1);
+  std::vector<int> apart(placed.normals.size(), -1);
   if (mesh.deforms)
     for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
-      int face = refined.quad_face[q - obj.patch_begin];
-      if (!shaded_smooth(mesh, refined, obj, q, pm.patches[q].area))
+      int face = placed.refined.quad_face[q - obj.patch_begin];
+      if (!shaded_smooth(mesh, placed.refined, obj, q, pm.patches[q].area))
         std::fill_n(apart.begin() + 4 * (q - obj.patch_begin), 4, face);
     }
-  make_points(pm, normals, apart, 4 * obj.patch_begin, obj);
+  make_points(pm, placed.normals, apart, 4 * obj.patch_begin, obj);
   if (obj.patch_end > obj.patch_begin) obj.enclosed_side = enclosed_side(pm, mesh, obj);
   enclose(pm, obj, int(pm.objects.size()));
   pm.objects.push_back(std::move(obj));
@@ -400,7 +387,7 @@ void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>
 
 namespace radiosity {
 
-RefinedMesh refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh) {
+PlacedObject refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh) {
   const ObjectPatches& obj = pm.objects.at(object);
   RefinedMesh refined = refine_mesh(mesh, obj.face_levels);
   bool mirrored = glm::determinant(glm::dmat3(mesh.transform)) < 0;
@@ -411,8 +398,8 @@ RefinedMesh refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh)
   // A receiving point holds the corners that met at its vertex facing one way (make_points), and
   // keeps them: a deformation that turns one of them away (a flat floor bent into a crease) would
   // leave it gathering for the wrong normal.
-  std::vector<dvec3> at = placed(pm, mesh, refined);
-  std::vector<dvec3> normals = corner_normals(pm, mesh, refined, obj, at.data());
+  PlacedObject placed = place(pm, mesh, std::move(refined), obj);
+  const std::vector<dvec3>& normals = placed.normals;
   int first_slot = 4 * obj.patch_begin;
   for (int p = obj.point_begin; p < obj.point_end; ++p) {
     const dvec3& facing = normals[pm.point_slots[pm.point_slot_begin[p]] - first_slot];
@@ -424,13 +411,13 @@ RefinedMesh refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh)
                                     "crease opened); it must be added anew");
     }
   }
-  return refined;
+  return placed;
 }
 
-void place_object(PatchMesh& pm, int object, const MeshDesc& mesh, const RefinedMesh& refined) {
+void place_object(PatchMesh& pm, int object, const MeshDesc& mesh, const PlacedObject& placed) {
   ObjectPatches& obj = pm.objects.at(object);
-  std::vector<dvec3> corner_normals = set_geometry(pm, mesh, refined, obj);
-  place_points(pm, corner_normals.data(), 4 * obj.patch_begin, obj.point_begin, obj.point_end);
+  set_geometry(pm, mesh, placed, obj);
+  place_points(pm, placed.normals.data(), 4 * obj.patch_begin, obj.point_begin, obj.point_end);
   enclose(pm, obj, object);
 }
 

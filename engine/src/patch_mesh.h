@@ -91,11 +91,26 @@ void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes
 void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
                 const Settings& settings);
 
+// A patch's area and unit normal from its corners (half the cross product of its diagonals: exact
+// for a planar quad); both zero where it is degenerate.
+struct Facet {
+  double area = 0.0;
+  dvec3 normal{0.0};
+};
+
+// An object refined and where its transform puts it, worked out once for checking and placing.
+struct PlacedObject {
+  RefinedMesh refined;
+  std::vector<dvec3> at;       // its vertices, in the patch mesh's frame
+  std::vector<Facet> facets;   // per patch
+  std::vector<dvec3> normals;  // per patch corner (4 a patch): the facet's, or on a smooth face the shading normal
+};
+
 // Moving or deforming one object in place, in two steps so a bad change is refused before anything
-// changes: `mesh` (new transform or positions) must refine to the same patches as before, else
-// std::invalid_argument; then the object's vertices, patches and points take the new places (their
-// indices stay).
-RefinedMesh refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh);
-void place_object(PatchMesh& pm, int object, const MeshDesc& mesh, const RefinedMesh& refined);
+// changes: `mesh` (new transform or positions) must refine to the same patches as before, and keep
+// the corners each receiving point holds facing one way, else std::invalid_argument; then the
+// object's vertices, patches and points take the new places (their indices stay).
+PlacedObject refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh);
+void place_object(PatchMesh& pm, int object, const MeshDesc& mesh, const PlacedObject& placed);
 
 }  // namespace radiosity

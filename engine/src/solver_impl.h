@@ -145,9 +145,9 @@ struct Solver::Impl {
   void change_lamp(int index, const Lamp& lamp);
   bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
   void change_material(int index, const Material& material);
-  Zone change_object(int object, const MeshDesc& mesh, const RefinedMesh& refined);  // where it was and is
+  Zone change_object(int object, const MeshDesc& mesh, const PlacedObject& placed);  // where it was and is
   std::vector<char> touched;  // per point: its light was recomputed by this update
-  void place(int object, const MeshDesc& mesh, const RefinedMesh& refined);  // geometry only
+  void place(int object, const MeshDesc& mesh, const PlacedObject& placed);  // geometry only
   void forget_nodes(int node);  // the cached views of itself of the subtree from `node`
 
   // Outgoing front radiance at a patch corner; with `near`, with near_direct_correction.
