@@ -129,6 +129,11 @@ double rise_onto(const dvec3& x, const dvec3& n, const dvec3& a, const dvec3& b,
   return u >= 0 && v >= 0 && u + v <= 1 && t > 0 ? t : 0.0;
 }
 
+int vertex_of_point(const PatchMesh& pm, int p) {
+  int slot = pm.point_slots[pm.point_slot_begin[p]];
+  return pm.patches[slot / 4].vertex[slot % 4];
+}
+
 // Puts points [begin, end) at their vertices, facing the way their first corner faces, nudged
 // towards the centres of their patches. `corner_normal[slot - first_slot]` is a corner's normal.
 void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int begin, int end) {
@@ -139,14 +144,18 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
     rp.normal = corner_normal[first - first_slot];
     CornerView view = corner_view(pm, p, corner_normal, first_slot);
     rp.reflected_share = view.reflected_share;
-    dvec3 centre_sum(0.0);
+    dvec3 centre_sum(0.0), first_centre(0.0);
+    double reach = 0.0;
     int count = 0;
     for (int i = pm.point_slot_begin[p]; i < pm.point_slot_begin[p + 1]; ++i) {
       int slot = pm.point_slots[i];
       pm.own_view[slot] = view.own[i - pm.point_slot_begin[p]];
       pm.onward[slot] = view.onward[i - pm.point_slot_begin[p]];
       const Patch& patch = pm.patches[slot / 4];
-      if (patch.area > 0) centre_sum += patch.centre, ++count;
+      if (patch.area == 0) continue;
+      if (count++ == 0) first_centre = patch.centre;
+      centre_sum += patch.centre;
+      reach += glm::length(patch.centre - rp.position);
     }
     if (count == 0) continue;
     // Where the surface is convex the patch centres lie below the tangent plane: a point moved
@@ -155,6 +164,13 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
     // one side of it (a T-junction; wide faces beside narrow ones) went behind their facets and
     // gathered nothing: it moves towards them, into the open.
     dvec3 towards = centre_sum / double(count) - rp.position;
+    // A point holding faces that lie opposite each other round its vertex, beside another point's
+    // (a fold between flat faces: the diagonal pair of four), went nowhere: on the other faces'
+    // corners, where Lambert's formula is round-off, it took them for its whole sky (1.5 times
+    // the light). It goes into one of its own faces.
+    bool shared = (p > begin && vertex_of_point(pm, p - 1) == vertex_of_point(pm, p)) ||
+                  (p + 1 < end && vertex_of_point(pm, p + 1) == vertex_of_point(pm, p));
+    if (shared && glm::length(towards) < 0.25 * reach / count) towards = first_centre - rp.position;
     double rise = glm::dot(towards, rp.normal);
     rp.position += kInwardNudge * (rise > 0 ? towards : towards - rise * rp.normal);
     // Embree traces a quad as the triangles (v0, v1, v3) and (v2, v3, v1). Where the quad is not

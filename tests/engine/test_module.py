@@ -159,6 +159,31 @@ def test_every_corner_of_a_quad_that_is_not_flat_is_lit(rise):
     assert solver.corner_radiance(obj)[:, 0] == pytest.approx(np.full(4, RHO * 3 * cos / math.pi), rel=1e-3)
 
 
+def test_every_corner_of_a_gently_bumpy_flat_shaded_grid_gets_its_facets_light():
+    # A 12 x 12 grid with random heights (slopes up to 5 degrees) under a sun straight down: a
+    # height field, so nothing shadows, and its folds are too shallow to light each other (0.1%).
+    # Each corner gets RHO E cos / pi, cos its face's. Before the points came up onto the traced
+    # triangles, 3 corners were black; before a point holding two opposite faces of a vertex went
+    # into one of them, 2 got 1.5 times the light (Lambert's formula at the other faces' corners).
+    n = 12
+    a, b = np.meshgrid(np.linspace(0, 1, n + 1), np.linspace(0, 1, n + 1))
+    heights = 0.08 / n * np.random.default_rng(1).random(a.size)
+    positions = np.stack([a.ravel(), b.ravel(), heights], 1)
+    i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
+    quads = np.stack([i, i + 1, i + n + 2, i + n + 1], -1).reshape(-1, 4)
+    scene = engine.Scene()
+    scene.add_sun_light((0, 0, -1), (3, 3, 3))
+    obj = scene.add_mesh(positions, np.full(n * n, 4, np.int32), quads.ravel().astype(np.int32),
+                         np.full(n * n, scene.add_material((RHO,) * 3), np.int32))
+    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    solver.solve()
+    q = positions[quads]
+    facing = np.cross(q[:, 2] - q[:, 0], q[:, 3] - q[:, 1])
+    cos = facing[:, 2] / np.linalg.norm(facing, axis=1)
+    got = solver.corner_radiance(obj)[:, 0].reshape(-1, 4) / (RHO * 3 / math.pi * cos[:, None])
+    assert got.min() > 0.995 and got.max() < 1.005
+
+
 def lit_wedge_form_factor(height, inset, a, n=2000):
     """Form factor, from a point `height` over the floor on a wall facing +v and `inset` along it
     (towards -u) from a corner at the origin, to the floor where u > -a v (v > 0): the floor beside
