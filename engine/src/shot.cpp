@@ -53,8 +53,8 @@ struct ShotBuilder {
   Shot& shot;
   std::vector<Cell> cells;  // of the patch being added, kept to spare an allocation per patch
 
-  bool sees(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, int side) const {
-    return !vis || (side == 0 ? vis->connected(a, na, b, nb) : vis->connected(a, -na, b, -nb));
+  bool sees(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, int side, double bulge = 0.0) const {
+    return !vis || (side == 0 ? vis->connected(a, na, b, nb, bulge) : vis->connected(a, -na, b, -nb, bulge));
   }
 
   // The cached entry under `key`, made by `make` (which fills one byte per item) on first use.
@@ -155,7 +155,7 @@ struct ShotBuilder {
             uint8_t bits = 0;
             for (int c = 0; c < 4; ++c) {
               const ReceiverPoint& corner = mesh.points[patch.point[c]];
-              if (sees(cell.centre, cell.normal, corner.position, corner.normal, s)) bits |= 1 << c;
+              if (sees(cell.centre, cell.normal, corner.position, corner.normal, s, light.lift)) bits |= 1 << c;
             }
             out.push_back(bits);
           }
@@ -521,7 +521,7 @@ inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot&
       dvec3 y = bilinear(patch.corner, u, v);
       uint8_t sees = 0;
       for (int c = 0; c < 4; ++c)
-        if ((corners & (1 << c)) && batch.visibility().connected(y, m, patch.corner[c], m)) sees |= 1 << c;
+        if ((corners & (1 << c)) && batch.visibility().connected(y, m, patch.corner[c], m, patch.lift)) sees |= 1 << c;
       return sees;
     };
     if (above && below && front && back && seen) {

@@ -284,10 +284,10 @@ double Visibility::replay_recorded() const {
   return rays / seconds;
 }
 
-bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb) const {
+bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, double bulge) const {
   double chord = glm::length(b - a);
   double bend = std::acos(std::clamp(glm::dot(na, nb), -1.0, 1.0));
-  double lift = epsilon_ + 0.25 * chord * bend;  // a circular arc bulges chord * bend / 8
+  double lift = epsilon_ + 0.25 * chord * bend + bulge;  // a circular arc bulges chord * bend / 8
   dvec3 origin = a + lift * na;
   dvec3 dir = b + lift * nb - origin;
   double len = glm::length(dir);

@@ -105,7 +105,7 @@ class Visibility {
   // Whether points a and b of surfaces with normals na, nb see each other on the side the normals
   // point to. The ends are lifted off their surfaces by more than the surface can bulge between
   // them, so two points of one curved patch do not occlude each other.
-  bool connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb) const;
+  bool connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, double bulge = 0.0) const;
 
   // Benchmark hooks: keep a copy of every `stride`-th traced batch, then trace the copies again with
   // nothing else going on (same scene, same batch size, all cores) and return rays per second.
