@@ -141,7 +141,9 @@ struct ShotBuilder {
           light.own_view[c][s] = mesh.own_view[4 * p + c][s];
         }
       }
-      light.lift = bilinear_bulge(light.corner, patch.normal);
+      light.twist = bilinear_twist(light.corner, patch.normal);
+      // A ray across the patch to its corner passes its middle: it needs the whole bulge.
+      double bulge = 0.25 * light.twist;
       if (vis && vis->may_lie_under(p)) light.under_patch = p;
       cells.resize(k * k);
       bilinear_cells(light.corner, k, cells.data());
@@ -155,7 +157,7 @@ struct ShotBuilder {
             uint8_t bits = 0;
             for (int c = 0; c < 4; ++c) {
               const ReceiverPoint& corner = mesh.points[patch.point[c]];
-              if (sees(cell.centre, cell.normal, corner.position, corner.normal, s, light.lift)) bits |= 1 << c;
+              if (sees(cell.centre, cell.normal, corner.position, corner.normal, s, bulge)) bits |= 1 << c;
             }
             out.push_back(bits);
           }
@@ -475,7 +477,8 @@ RADIOSITY_HOT void exact_piece(int receiver, const dvec3& x, const dvec3& n, con
     if (light.patch.piece) radiance += (*light.patch.piece)(target, p.cell.normal, light.side);
     dvec3 e = radiance * (part == 0 ? f.front : f.back);
     if (!is_zero(e))
-      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0, e, light.patch.lift, light.patch.under_patch);
+      batch.to_point(receiver, x, n, target, p.cell.normal, part == 0, e, bilinear_lift(light.patch.twist, u, v),
+                     light.patch.under_patch);
   };
   if (f.front > 0 && f.back > 0) {
     double h[4];
@@ -521,7 +524,7 @@ inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot&
       dvec3 y = bilinear(patch.corner, u, v);
       uint8_t sees = 0;
       for (int c = 0; c < 4; ++c)
-        if ((corners & (1 << c)) && batch.visibility().connected(y, m, patch.corner[c], m, patch.lift)) sees |= 1 << c;
+        if ((corners & (1 << c)) && batch.visibility().connected(y, m, patch.corner[c], m, 0.25 * patch.twist)) sees |= 1 << c;
       return sees;
     };
     if (above && below && front && back && seen) {
@@ -598,7 +601,8 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
           if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
           if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
             far_sample(receiver, x, n, cell.centre, cell.centre, cell.normal,
-                       [&]() __attribute__((always_inline)) { return *factor; }, sc.radiance, patch.lift,
+                       [&]() __attribute__((always_inline)) { return *factor; }, sc.radiance,
+                       bilinear_lift(patch.twist, sc.u0 + 0.5 * sc.size, sc.v0 + 0.5 * sc.size),
                        patch.under_patch, shut, batch);
             continue;
           }

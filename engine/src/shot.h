@@ -34,7 +34,7 @@ using PieceRadiance = std::function<dvec3(const dvec3& y, const dvec3& m, int si
 // plus `piece` at the piece where given. First what every visit to one of its cells reads, near or far.
 struct ShotPatch {
   int point[4] = {-1, -1, -1, -1};   // receiving points at the corners (none for lamps)
-  double lift = 0.0;  // how far its bilinear surface may lie off the two triangles Embree traces
+  double twist = 0.0;  // of its bilinear surface off the two triangles Embree traces (bilinear_twist)
   int under_patch = -1;  // its patch, where it may lie under another surface (Coincident)
   dvec3 corner[4];
   dvec3 radiance[4][2];              // [corner][side], side 0 = front

@@ -141,11 +141,28 @@ T bilinear(const T c[4], double u, double v) {
   return (1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3];
 }
 
-// How far the bilinear patch c0 c1 c2 c3 may lie off the two triangles Embree traces for it, along
-// its unit normal: a quarter of its twist, at its centre. A ray ending on the patch short of that
-// could end behind the triangles and count as blocked.
-inline double bilinear_bulge(const dvec3 c[4], const dvec3& normal) {
-  return 0.25 * std::fabs(glm::dot(c[0] - c[1] + c[2] - c[3], normal));
+// At (u, v) the bilinear patch c0 c1 c2 c3 lies u v T off the triangle (c0, c1, c3) Embree traces
+// for it (u + v <= 1), and (1 - u) (1 - v) T off (c2, c3, c1), T = c0 - c1 + c2 - c3. A ray ending
+// on the patch short of that could end behind the triangles and count as blocked. Its twist: how
+// far along the unit `normal` a point must move per unit of that weight to come out in front of
+// both triangles' planes.
+inline double bilinear_twist(const dvec3 c[4], const dvec3& normal) {
+  dvec3 t = c[0] - c[1] + c[2] - c[3];
+  double twist = std::fabs(glm::dot(t, normal));
+  for (dvec3 facing : {glm::cross(c[1] - c[0], c[3] - c[0]), glm::cross(c[3] - c[2], c[1] - c[2])}) {
+    double length = glm::length(facing);
+    if (length > 0) twist = std::max(twist, std::fabs(glm::dot(t, facing)) / std::max(glm::dot(normal, facing), 0.5 * length));
+  }
+  return twist;
 }
+
+// How far to lift a ray's end at (u, v) of a patch of that twist off it: twice the need, for the
+// tilt of the cells' own normals and Embree's float.
+inline double bilinear_lift(double twist, double u, double v) {
+  return 2 * twist * (u + v <= 1 ? u * v : (1 - u) * (1 - v));
+}
+
+// The most it lies off them: at its centre.
+inline double bilinear_bulge(const dvec3 c[4], const dvec3& normal) { return 0.25 * bilinear_twist(c, normal); }
 
 }  // namespace radiosity
