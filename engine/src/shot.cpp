@@ -53,8 +53,10 @@ struct ShotBuilder {
   Shot& shot;
   std::vector<Cell> cells;  // of the patch being added, kept to spare an allocation per patch
 
-  bool sees(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, int side, double bulge = 0.0) const {
-    return !vis || (side == 0 ? vis->connected(a, na, b, nb, bulge) : vis->connected(a, -na, b, -nb, bulge));
+  bool sees(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, int side, double bulge = 0.0,
+            double lift_a = 0.0) const {
+    return !vis || (side == 0 ? vis->connected(a, na, b, nb, bulge, lift_a)
+                              : vis->connected(a, -na, b, -nb, bulge, lift_a));
   }
 
   // The cached entry under `key`, made by `make` (which fills one byte per item) on first use.
@@ -153,11 +155,13 @@ struct ShotBuilder {
         for (int c = 0; c < 4; ++c) any |= !is_zero(unshot[p][c * 2 + s]);
         if (!any) continue;
         seen[s] = &cached(cache->cell, cell_key(p, k, s), [&](std::vector<uint8_t>& out) {
-          for (const Cell& cell : cells) {
+          for (int i = 0; i < k * k; ++i) {
+            const Cell& cell = cells[i];
+            double lift = bilinear_lift(light.twist, (i % k + 0.5) / k, (i / k + 0.5) / k);
             uint8_t bits = 0;
             for (int c = 0; c < 4; ++c) {
               const ReceiverPoint& corner = mesh.points[patch.point[c]];
-              if (sees(cell.centre, cell.normal, corner.position, corner.normal, s, bulge)) bits |= 1 << c;
+              if (sees(cell.centre, cell.normal, corner.position, corner.normal, s, bulge, lift)) bits |= 1 << c;
             }
             out.push_back(bits);
           }
@@ -524,7 +528,9 @@ inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot&
       dvec3 y = bilinear(patch.corner, u, v);
       uint8_t sees = 0;
       for (int c = 0; c < 4; ++c)
-        if ((corners & (1 << c)) && batch.visibility().connected(y, m, patch.corner[c], m, 0.25 * patch.twist)) sees |= 1 << c;
+        if ((corners & (1 << c)) &&
+            batch.visibility().connected(y, m, patch.corner[c], m, 0.25 * patch.twist, bilinear_lift(patch.twist, u, v)))
+          sees |= 1 << c;
       return sees;
     };
     if (above && below && front && back && seen) {

@@ -284,17 +284,21 @@ double Visibility::replay_recorded() const {
   return rays / seconds;
 }
 
-bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, double bulge) const {
+bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, double bulge,
+                           double lift_a) const {
   double chord = glm::length(b - a);
   double bend = std::acos(std::clamp(glm::dot(na, nb), -1.0, 1.0));
-  double lift = epsilon_ + 0.25 * chord * bend + bulge;  // a circular arc bulges chord * bend / 8
-  dvec3 origin = a + lift * na;
-  dvec3 dir = b + lift * nb - origin;
-  double len = glm::length(dir);
-  if (len <= 2 * epsilon_) return true;
-  RTCRay ray = make_ray(origin, dir, float(1.0 - epsilon_ / len));
-  occluded(&ray, 1);
-  return ray.tfar >= 0;
+  double arc = epsilon_ + 0.25 * chord * bend;  // a circular arc bulges chord * bend / 8
+  auto clear = [&](double at_a, double at_b) {
+    dvec3 origin = a + (arc + at_a) * na;
+    dvec3 dir = b + (arc + at_b) * nb - origin;
+    double len = glm::length(dir);
+    if (len <= 2 * epsilon_) return true;
+    RTCRay ray = make_ray(origin, dir, float(1.0 - epsilon_ / len));
+    occluded(&ray, 1);
+    return ray.tfar >= 0;
+  };
+  return clear(bulge, bulge) || (bulge > lift_a && clear(lift_a, 0.0));
 }
 
 void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,

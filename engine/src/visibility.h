@@ -104,8 +104,12 @@ class Visibility {
 
   // Whether points a and b of surfaces with normals na, nb see each other on the side the normals
   // point to. The ends are lifted off their surfaces by more than the surface can bulge between
-  // them, so two points of one curved patch do not occlude each other.
-  bool connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, double bulge = 0.0) const;
+  // them, so two points of one curved patch do not occlude each other. Where that lift takes an
+  // end past a neighbouring surface (a point by a box's fold, lifted through the other wall), the
+  // ray is tried again with a lifted by `lift_a` alone, what its own place needs, and b (a corner
+  // of a's patch) by nothing more.
+  bool connected(const dvec3& a, const dvec3& na, const dvec3& b, const dvec3& nb, double bulge = 0.0,
+                 double lift_a = 0.0) const;
 
   // Benchmark hooks: keep a copy of every `stride`-th traced batch, then trace the copies again with
   // nothing else going on (same scene, same batch size, all cores) and return rays per second.
