@@ -411,6 +411,7 @@ struct NearLight {
   const ShotPatch& patch;
   int side;
   uint8_t corners[2];
+  uint8_t other;  // the corners the cell's centre sees on its other side
   const Shot& shot;  // how far to split
 };
 
@@ -475,10 +476,15 @@ RADIOSITY_HOT void exact_piece(int receiver, const dvec3& x, const dvec3& n, con
   }
   SideFactors f = cell_form_factor(p.cell, x, n);
   if (f.front == 0 && f.back == 0) return;
+  // A piece split off near the receiver faces it from its own side, which on a twisted patch need
+  // not be its cell's: by a box's fold the receiver can lie behind a cell's plane and in front of
+  // the pieces beside it, and took none of their reflected light (one-sided) at 4 x 4 cells a patch.
+  bool flipped = depth > 0 && (glm::dot(p.cell.normal, x - p.cell.centre) >= 0) != (light.side == 0);
+  int side = flipped ? 1 - light.side : light.side;
   // One ray to `target` carries the light of the part on side `part` of the receiver's plane.
   auto send = [&](int part, double u, double v, const dvec3& target) __attribute__((always_inline)) {
-    dvec3 radiance = radiance_at(light.patch, light.side, light.corners[part], u, v);
-    if (light.patch.piece) radiance += (*light.patch.piece)(target, p.cell.normal, light.side);
+    dvec3 radiance = radiance_at(light.patch, side, flipped ? light.other : light.corners[part], u, v);
+    if (light.patch.piece) radiance += (*light.patch.piece)(target, p.cell.normal, side);
     dvec3 e = radiance * (part == 0 ? f.front : f.back);
     if (!is_zero(e))
       batch.to_point(receiver, x, n, target, p.cell.normal, part == 0, e, bilinear_lift(light.patch.twist, u, v),
@@ -508,7 +514,7 @@ inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot&
                        OcclusionBatch& batch) {
   const ShotPatch& patch = shot.patches[sc.patch];
   uint8_t seen = sc.seen[side];
-  NearLight light{patch, side, {seen, seen}, shot};
+  NearLight light{patch, side, {seen, seen}, sc.seen[1 - side], shot};
   if (seen != 15) {
     double tolerance = 1e-9 * sc.cell.radius;
     double h[4];
@@ -539,8 +545,12 @@ inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot&
     }
   }
   bool lit = patch.piece != nullptr;  // it may light a piece its corners leave dark
+  // Pieces split off it may face the receiver from the other side (exact_piece).
+  double split = shot.split_radii * sc.cell.radius;
+  bool splits = shot.split_depth > 0 && glm::dot(sc.cell.centre - x, sc.cell.centre - x) < split * split;
   for (int c = 0; c < 4; ++c)
-    lit |= ((light.corners[0] | light.corners[1]) & (1 << c)) && !is_zero(patch.radiance[c][side]);
+    lit |= (((light.corners[0] | light.corners[1]) & (1 << c)) && !is_zero(patch.radiance[c][side])) ||
+           (splits && (light.other & (1 << c)) && !is_zero(patch.radiance[c][1 - side]));
   if (lit) exact_piece(receiver, x, n, {sc.cell, sc.u0, sc.v0, sc.size}, light, 0, batch);
 }
 

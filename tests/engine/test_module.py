@@ -183,11 +183,11 @@ def test_a_quad_that_is_not_flat_sends_all_its_light(rise):
     assert floor_light(False).sum() == pytest.approx(floor_light(True).sum(), rel=1e-3)
 
 
-def bumpy_box(scene, jitter):
+def bumpy_box(scene, jitter, rho=RHO):
     """A closed cube of 6 x 6 quads a face glowing with radiance 1, facing in, its vertices moved
     in or out by up to jitter / 2: its quads are not flat."""
     rng = np.random.default_rng(1)
-    m = scene.add_material((RHO,) * 3, (1.0,) * 3)
+    m = scene.add_material((rho,) * 3, (1.0,) * 3)
     box, t = Mesh(), np.linspace(-1, 1, 7)
     for axis in range(3):
         u, v = (axis + 1) % 3, (axis + 2) % 3  # e_u x e_v = e_axis
@@ -204,17 +204,22 @@ def bumpy_box(scene, jitter):
     return box.add_to(scene)
 
 
-def test_a_bumpy_furnace_keeps_its_light():
+@pytest.mark.parametrize("jitter, rho, mean_within, within", [(0.02, RHO, 5e-3, 5e-3), (0.1, 0.9, 5e-3, 0.1)])
+def test_a_bumpy_furnace_keeps_its_light(jitter, rho, mean_within, within):
     # Case 10 on a box bumpy by 1%. Before its cells sent light from their own corners, it came out
-    # at 0.93 of E / (1 - rho), some corners at 0.5.
+    # at 0.93 of E / (1 - rho), some corners at 0.5. By 5% and at rho = 0.9 (ten bounces' worth of
+    # the bumps' own error, 9% at worst) it came out at 0.90, some corners 0.43: at 4 x 4 cells a
+    # patch, the reflected shots sent the corners at its folds nothing from the cells beside them,
+    # whose planes they lay behind.
     scene = engine.Scene()
-    obj = bumpy_box(scene, 0.02)
+    obj = bumpy_box(scene, jitter, rho)
     settings = engine.Settings.preset("default")
     settings.threshold = 1e-4
     solver = engine.Solver(scene, settings)
     assert solver.solve()["converged"]
-    b = solver.corner_radiance(obj)[:, 0] * (1 - RHO)
-    assert np.abs(b - 1).max() < 5e-3
+    b = solver.corner_radiance(obj)[:, 0] * (1 - rho)
+    assert abs(b.mean() - 1) < mean_within
+    assert np.abs(b - 1).max() < within
 
 
 @pytest.mark.parametrize("jitter, samples, within", [(0.05, 16, 1e-2), (0.05, 64, 1e-2), (0.05, 256, 1e-2),
