@@ -145,7 +145,7 @@ struct ShotBuilder {
       }
       light.twist = bilinear_twist(light.corner, patch.normal);
       // A ray across the patch to its corner passes its middle: it needs the whole bulge.
-      double bulge = 0.25 * light.twist;
+      double bulge = bilinear_bulge(light.twist);
       if (vis && vis->may_lie_under(p)) light.under_patch = p;
       cells.resize(k * k);
       bilinear_cells(light.corner, k, cells.data());
@@ -452,6 +452,12 @@ void part_centroid(const Piece& p, const double h[4], int part, double& u, doubl
   v = p.v0 + (sliver ? 0.5 * p.size : std::clamp(cv / (3 * area), 0.0, p.size));
 }
 
+// Whether a piece at `depth` of its cell's splits is split again near receiver x (exact_piece).
+bool splits_near(const Shot& shot, const Cell& piece, const dvec3& x, int depth) {
+  double split = shot.split_radii * piece.radius;
+  return depth < shot.split_depth && glm::dot(piece.centre - x, piece.centre - x) < split * split;
+}
+
 // An exactly integrated piece of a cell. Each part of it on one side of the receiver's plane is
 // seen through one ray to that part's centroid and sends the patch's radiance interpolated there:
 // the cell's value at its centre would be wrong where the centre lies under the receiver's own
@@ -459,11 +465,9 @@ void part_centroid(const Piece& p, const double h[4], int part, double& u, doubl
 // dark floor under the box, while all that the foot sees is the lit half).
 RADIOSITY_HOT void exact_piece(int receiver, const dvec3& x, const dvec3& n, const Piece& p, const NearLight& light,
                                int depth, OcclusionBatch& batch) {
-  dvec3 d = p.cell.centre - x;
   // Split near the receiver: one ray to the centre of a cell that straddles an occluder's edge (a
   // floor cell half under a box, seen from the box's foot) would count the whole cell as lit or dark.
-  double split = light.shot.split_radii * p.cell.radius;
-  if (depth < light.shot.split_depth && glm::dot(d, d) < split * split) {
+  if (splits_near(light.shot, p.cell, x, depth)) {
     Cell cells[4];
     bilinear_cells(p.cell.corners, 2, cells);
     double half = 0.5 * p.size;
@@ -535,7 +539,7 @@ inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot&
       uint8_t sees = 0;
       for (int c = 0; c < 4; ++c)
         if ((corners & (1 << c)) &&
-            batch.visibility().connected(y, m, patch.corner[c], m, 0.25 * patch.twist, bilinear_lift(patch.twist, u, v)))
+            batch.visibility().connected(y, m, patch.corner[c], m, bilinear_bulge(patch.twist), bilinear_lift(patch.twist, u, v)))
           sees |= 1 << c;
       return sees;
     };
@@ -546,8 +550,7 @@ inline void exact_cell(int receiver, const dvec3& x, const dvec3& n, const Shot&
   }
   bool lit = patch.piece != nullptr;  // it may light a piece its corners leave dark
   // Pieces split off it may face the receiver from the other side (exact_piece).
-  double split = shot.split_radii * sc.cell.radius;
-  bool splits = shot.split_depth > 0 && glm::dot(sc.cell.centre - x, sc.cell.centre - x) < split * split;
+  bool splits = splits_near(shot, sc.cell, x, 0);
   for (int c = 0; c < 4; ++c)
     lit |= (((light.corners[0] | light.corners[1]) & (1 << c)) && !is_zero(patch.radiance[c][side])) ||
            (splits && (light.other & (1 << c)) && !is_zero(patch.radiance[c][1 - side]));

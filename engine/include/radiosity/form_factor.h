@@ -163,6 +163,7 @@ inline double bilinear_lift(double twist, double u, double v) {
 }
 
 // The most it lies off them: at its centre.
-inline double bilinear_bulge(const dvec3 c[4], const dvec3& normal) { return 0.25 * bilinear_twist(c, normal); }
+inline double bilinear_bulge(double twist) { return 0.25 * twist; }
+inline double bilinear_bulge(const dvec3 c[4], const dvec3& normal) { return bilinear_bulge(bilinear_twist(c, normal)); }
 
 }  // namespace radiosity
