@@ -350,26 +350,45 @@ def _deforming(ob):
 
 
 def _needs_reevaluation(ob):
-    """True when ob's cage (mesh without its last Subdivision Surface) is not simply ob.data."""
-    return _last_subsurf(ob) is not None and bool(_deforming(ob))
+    """True when the mesh ob sends is not what the viewport's evaluation gives: its cage when
+    something besides its last Subdivision Surface changes ob.data; else its render evaluation, where
+    a modifier is shown in one of viewport and render only, or subdivides to another level there."""
+    sub = _last_subsurf(ob)
+    if sub is not None:
+        return bool(_deforming(ob))
+    return any(_evaluated_otherwise(m) for m in ob.modifiers)
 
 
-def _cages_by_reevaluation(objects, depsgraph):
-    """{name: Mesh copy} of the evaluated meshes of `objects` (originals) with their last
-    Subdivision Surface modifier disabled. One depsgraph update for all of them, then restore."""
+def _evaluated_otherwise(m):
+    """Whether modifier m does something else in the viewport than in renders."""
+    return m.show_viewport != m.show_render or \
+        (m.show_render and hasattr(m, "render_levels") and m.levels != m.render_levels)
+
+
+def _render_meshes(objects, depsgraph):
+    """{name: Mesh copy} of `objects` (originals) as Cycles renders them (a bake evaluates for render,
+    the viewport's depsgraph for the viewport): each modifier shown as in renders and at its render
+    level, but the last Subdivision Surface off, as it goes to the engine as cage and level. One
+    depsgraph update for all of them, then restore."""
     if not objects:
         return {}
-    saved = []
+    saved = []          # (modifier, show_viewport, levels or None)
     for ob in objects:
         sub = _last_subsurf(ob)
-        saved.append((sub, sub.show_viewport))
-        sub.show_viewport = False
+        for m in ob.modifiers:
+            levels = m.levels if hasattr(m, "render_levels") else None
+            saved.append((m, m.show_viewport, levels))
+            m.show_viewport = m.show_render and m != sub
+            if levels is not None:
+                m.levels = m.render_levels
     try:
         depsgraph.update()
         return {ob.name: bpy.data.meshes.new_from_object(ob.evaluated_get(depsgraph)) for ob in objects}
     finally:
-        for sub, v in saved:
-            sub.show_viewport = v
+        for m, shown, levels in saved:
+            m.show_viewport = shown
+            if levels is not None:
+                m.levels = levels
         depsgraph.update()
 
 
@@ -490,10 +509,10 @@ def _original_loops(orig_me, co, sizes, fv):
     return np.where(found, original, -1).astype(np.int32)
 
 
-def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_render_levels=True, cage=None,
-                warnings=None, images=None):
-    """MeshExport of one evaluated object. `cage`: precomputed cage Mesh (see _cages_by_reevaluation);
-    what it cannot reproduce is appended to `warnings`. `images`: texture.Images of this export."""
+def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, rendered=None, warnings=None,
+                images=None):
+    """MeshExport of one evaluated object. `rendered`: its mesh as renders evaluate it, where that is
+    not the viewport's (_render_meshes); what the export cannot reproduce is appended to `warnings`. `images`: texture.Images of this export."""
     warnings = [] if warnings is None else warnings
     images = colour_texture.Images() if images is None else images
     lut = export_materials_of(ob_eval, registry, materials, images)
@@ -501,12 +520,13 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, use_
     sub = _last_subsurf(orig) if orig.type == 'MESH' else None   # a curve's is Blender's to apply
     refine, level = "bilinear", 0
     if sub is not None:
-        level = int(sub.render_levels if use_render_levels else sub.levels)
+        level = int(sub.render_levels)
         if sub.subdivision_type == 'CATMULL_CLARK' and level > 0:
             refine = "catmull_clark"
         else:                   # Simple subdivision keeps flat faces flat: the engine's own bilinear
             level = 0
-        me = cage if cage is not None else orig.data
+    if rendered is not None or sub is not None:
+        me = rendered if rendered is not None else orig.data
         cleanup = lambda: None
     else:
         me = ob_eval.to_mesh()
@@ -687,7 +707,7 @@ def _hidden_in_viewports(depsgraph, listed, rendered, warnings):
     return items
 
 
-def export_scene(depsgraph=None, use_render_levels=True, images=None):
+def export_scene(depsgraph=None, images=None):
     """Export the evaluated scene. Meshes and lamps hidden from render are exported too (meshes with
     visible=False, lamps dark()): a Solver built from the export can show them later without a rebuild.
     Those hidden in the viewport but rendered light the scene as Cycles renders them
@@ -699,7 +719,7 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
     scene = depsgraph.scene_eval
     registry, materials, meshes, lights, warnings = {}, [], [], [], []
     images = colour_texture.Images() if images is None else images
-    # Collect first: _cages_by_reevaluation re-evaluates the depsgraph, invalidating the iterator.
+    # Collect first: _render_meshes re-evaluates the depsgraph, invalidating the iterator.
     items = []          # (original object, type, matrix, name, visible, evaluated: read from the depsgraph)
     listed = set()      # the objects the iterator gave as themselves
     counts = {}
@@ -732,13 +752,13 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
                         + "; Object > Apply > Make Instances Real (then Make Local, for linked ones) gives "
                         "each its own")
     todo = {o.name: o for o, kind, *_ in items if kind == 'MESH' and _needs_reevaluation(o)}
-    cages = _cages_by_reevaluation(list(todo.values()), depsgraph)
+    rendered_meshes = _render_meshes(list(todo.values()), depsgraph)
     try:
         for orig, kind, M, name, visible, evaluated in items:
             ev = orig.evaluated_get(depsgraph) if evaluated else orig
             if kind in GEOMETRY:
-                m = export_mesh(ev, depsgraph, M, registry, materials, name, use_render_levels,
-                                cages.get(orig.name), warnings, images)
+                m = export_mesh(ev, depsgraph, M, registry, materials, name, rendered_meshes.get(orig.name),
+                                warnings, images)
                 m.visible = visible
                 if len(m.face_sizes):
                     meshes.append(m)
@@ -752,7 +772,7 @@ def export_scene(depsgraph=None, use_render_levels=True, images=None):
         lights += suns
     finally:
         images.end_export()
-        for me in cages.values():
+        for me in rendered_meshes.values():
             bpy.data.meshes.remove(me)
     for m in materials:
         warnings += [f"material {m.name}: {w}" for w in m.warnings]

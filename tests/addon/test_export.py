@@ -319,6 +319,29 @@ def test_an_environment_texture_lights_as_its_suns_and_the_mean_of_the_rest(expo
 
 
 # ----------------------------------------------------------------------------- hidden, instanced, far, open
+def test_modifiers_go_as_they_render_not_as_the_viewport_shows_them(export, empty_scene):
+    """A Cycles bake evaluates for render: a modifier shown in renders only counts, one shown in the
+    viewport only does not, a Subdivision Surface before the last one subdivides to its render level;
+    the viewport's settings are left as they were."""
+    ob = box("Arrayed", (0, 0, 0.5))
+    array = ob.modifiers.new("Array", 'ARRAY')                # two boxes side by side, in renders
+    array.show_viewport = False
+    solidify = ob.modifiers.new("Solidify", 'SOLIDIFY')       # a box inside each, in the viewport
+    solidify.show_render = False
+    m = export.export_scene().mesh("Arrayed")
+    assert m.positions.shape == (16, 3) and np.ptp(m.positions[:, 0]) == pytest.approx(0.8)
+    assert not array.show_viewport and solidify.show_viewport
+    smooth = box("Smooth", (2, 0, 0.5))
+    first = smooth.modifiers.new("First", 'SUBSURF')
+    first.levels, first.render_levels = 0, 1
+    last = smooth.modifiers.new("Last", 'SUBSURF')
+    last.levels, last.render_levels = 1, 2
+    m = export.export_scene().mesh("Smooth")
+    assert m.refine == "catmull_clark" and m.level == 2 and len(m.face_sizes) == 24
+    assert first.levels == 0 and last.show_viewport and len(smooth.evaluated_get(
+        bpy.context.evaluated_depsgraph_get()).data.polygons) == 6 * 4
+
+
 def box(name, location, collection=None, modifier=None):
     me = bpy.data.meshes.new(name)
     bm = bmesh.new()
