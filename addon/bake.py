@@ -194,7 +194,17 @@ def _same_layout(a, b):
             and _same(a.corner_emission, b.corner_emission))
 
 
-def align_export(old, new):
+def _as_held(a, b, bent):
+    """Mesh export `b` as the Solver that holds `a` should take it: deforming (MeshDesc::deforms, each
+    flat face keeping its own point at the vertices it shares) once `a` is, or with `bent` where its
+    own vertices moved with no modifier or shape key behind them (a script's edit, Edit Mode's once
+    left)."""
+    flat = b.refine != "catmull_clark" and (b.smooth is None or not np.all(b.smooth))
+    moved = a.positions.shape == b.positions.shape and not np.array_equal(a.positions, b.positions)
+    return replace(b, deforms=True) if not b.deforms and (a.deforms or (bent and flat and moved)) else b
+
+
+def align_export(old, new, bent=False):
     """`new` laid out as the Solver that holds `old` will hold it: old's meshes, lamps and materials
     first, by index in old's order, then what `new` adds (diff_exports sends those with Solver.add).
 
@@ -203,7 +213,9 @@ def align_export(old, new):
     come back later (undo of a delete). A visible mesh is new's, its material indices mapped to the
     result's list. A mesh the engine cannot change in place (its topology, material assignment,
     smooth / flat shading, texture colours or whether it deforms changed) or a lamp of another type or area shape keeps
-    old's entry, renamed RETIRED and hidden or dark, and comes again after, as new's."""
+    old's entry, renamed RETIRED and hidden or dark, and comes again after, as new's. `bent`: the
+    engine refused `new` as a change of `old` (flat faces bent apart at a vertex they share); flat
+    meshes whose own vertices moved go as deforming from then on (_as_held)."""
     materials = list(old.materials)    # a material no object of `new` uses keeps old's values
     mat_index = {m.name: i for i, m in enumerate(materials)}
     for m in new.materials:
@@ -218,7 +230,9 @@ def align_export(old, new):
         b = fresh.pop(a.name, None)
         if b is None or not b.visible:
             meshes.append(replace(a, visible=False))
-        elif _same_layout(a, b):
+            continue
+        b = _as_held(a, b, bent)
+        if _same_layout(a, b):
             meshes.append(b)
         else:
             meshes.append(replace(a, name=f"{a.name}{RETIRED}{i}", visible=False))
@@ -423,6 +437,8 @@ class BakeJob:
             apply_calls(self.solver, self.calls)
             st = dict(self.solver.update(progress=self._progress))
         except ValueError as e:           # e.g. a scaled object refines to another patch count
+            if self._send_bent_as_deforming():
+                return self._update()
             self.rebuild_reason = f"the engine refused the change ({e})"
             self.calls = None
             self.base = None
@@ -431,6 +447,18 @@ class BakeJob:
         st["shots_before"] = base.get("shots", 0)
         st["rays_before"] = base.get("rays", 0)
         return st
+
+    def _send_bent_as_deforming(self):
+        """After the engine refused the change (which leaves its state as it was): whether flat meshes
+        whose own vertices moved can go once more, as deforming, so that the change is still an
+        update. Each such edit used to be a new Solver and a full solve."""
+        aligned = align_export(self.base.export, self.exported, bent=True)
+        if sum(m.deforms for m in aligned.meshes) == sum(m.deforms for m in self.export.meshes):
+            return False
+        self.export = aligned
+        self.calls = diff_exports(self.base.export, aligned, self.engine)
+        self.ids = {m.name: i for i, m in enumerate(aligned.meshes)}
+        return True
 
     def solve(self, progress=None, budget=None):
         """Run the solver; with `budget`, stop shooting after that many seconds of it (the job

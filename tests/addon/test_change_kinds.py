@@ -117,3 +117,29 @@ def test_change_is_incremental_and_matches_fresh_bake(addon, setup, call, target
     held = job.export.meshes if call == "set_positions" else job.export.lights
     assert held[job.calls[0][1][0]].name == target
     check_like_a_fresh_bake(scene, before, setup.__name__)
+
+
+def test_vertices_moved_without_a_modifier_bend_a_flat_floor_in_place(addon):
+    """A flat floor's own vertices raised into a pyramid (as a script, or leaving Edit Mode, moves
+    them): its flat faces bend apart at the vertices they share. The first edit sends it once more
+    as deforming (the old one hidden for good, the new one added: no new Solver), the next a
+    set_positions of that one; then as a fresh bake."""
+    live = addon.live_update
+    scene = edit_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    before = read(scene)
+    floor = scene.objects["Floor"].data
+    flat = np.empty(3 * len(floor.vertices), np.float32)
+    floor.vertices.foreach_get("co", flat)
+    flat = flat.reshape(-1, 3)
+    for height, calls in ((0.15, ["add", "set_visible"]), (0.3, ["set_positions"])):
+        co = flat.copy()
+        co[:, 2] += height * np.clip(1.0 - np.abs(co[:, :2] - 1.0).max(1), 0.0, None)
+        floor.vertices.foreach_set("co", co.ravel())
+        floor.update()
+        bpy.context.view_layer.update()
+        info = live.last_sync[scene.name]
+        job = live.live_jobs[scene.name]
+        assert info["mode"] == "incremental" and call_names(job) == calls, (info, job.calls)
+    check_like_a_fresh_bake(scene, before, "floor's vertices raised")
