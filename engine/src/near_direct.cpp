@@ -23,6 +23,11 @@
 #include "solver_impl.h"
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <mutex>
+#include <unordered_map>
 
 namespace radiosity {
 
@@ -60,6 +65,20 @@ struct NearDetail {
   bool step[2] = {false, false};
   dvec3 reflectance{0.0};
   PieceRadiance at_piece;
+  // What at_piece worked out, by the bits of its arguments, for the points asked for together:
+  // neighbouring points split a patch into the same pieces away from their own feet (a read of the
+  // rug room's blocks asked 40% of its pieces again, each a gather from every shooter), and the
+  // piece's light is a function of them alone. Emptied after each batch of points.
+  using Key = std::array<uint64_t, 7>;
+  struct KeyHash {
+    size_t operator()(const Key& k) const {
+      uint64_t h = 0;
+      for (uint64_t v : k) h = (h ^ v) * 0x100000001b3ull;
+      return size_t(h ^ (h >> 29));
+    }
+  };
+  mutable std::mutex memo_mutex;
+  mutable std::unordered_map<Key, dvec3, KeyHash> memo;
 };
 
 // A point asked for: what it gains, and what that was worked out from.
@@ -169,9 +188,17 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   // from Cycles than without it).
   d.at_piece = [this, &d](const dvec3& y, const dvec3& normal, int side) {
     if (!d.step[side]) return dvec3(0.0);
+    NearDetail::Key key;
+    double args[7] = {y.x, y.y, y.z, normal.x, normal.y, normal.z, double(side)};
+    std::memcpy(key.data(), args, sizeof args);
+    {
+      std::lock_guard<std::mutex> lock(d.memo_mutex);
+      if (auto known = d.memo.find(key); known != d.memo.end()) return known->second;
+    }
     dvec3 h = direct_at(y, normal)[side];
     if (!near_direct->reflected.empty()) h += light_at(near_direct->reflected, y, normal)[side];
-    return d.reflectance * h;
+    std::lock_guard<std::mutex> lock(d.memo_mutex);
+    return d.memo.try_emplace(key, d.reflectance * h).first->second;
   };
   d.exact.patches[0].piece = &d.at_piece;
   return &d;
@@ -238,6 +265,9 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
     }
   }
   for (int k = 0; k < count; ++k) nd.points[wanted[k]] = {gained[k], std::move(patches[k]), reach[k]};
+  for (const std::vector<const NearDetail*>& near_details : details)
+    for (const NearDetail* d : near_details)
+      if (!d->memo.empty()) decltype(d->memo)().swap(d->memo);
 }
 
 dvec3 Solver::Impl::near_direct_correction(int i) const {
