@@ -512,7 +512,8 @@ def _original_loops(orig_me, co, sizes, fv):
 def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, rendered=None, warnings=None,
                 images=None):
     """MeshExport of one evaluated object. `rendered`: its mesh as renders evaluate it, where that is
-    not the viewport's (_render_meshes); what the export cannot reproduce is appended to `warnings`. `images`: texture.Images of this export."""
+    not the viewport's (_render_meshes); what the export cannot reproduce is appended to `warnings`.
+    `images`: texture.Images of this export."""
     warnings = [] if warnings is None else warnings
     images = colour_texture.Images() if images is None else images
     lut = export_materials_of(ob_eval, registry, materials, images)
