@@ -317,6 +317,16 @@ def _last_subsurf(ob):
     return None
 
 
+def face_materials(me):
+    """Mesh `me`'s faces' material indices (int32), read as the attribute they are: through the faces
+    it took 1.4 ms for 20k of them against 0.09. No attribute: every face has the first."""
+    mi = np.zeros(len(me.polygons), np.int32)
+    attribute = me.attributes.get("material_index")
+    if attribute is not None and attribute.domain == 'FACE':
+        attribute.data.foreach_get("value", mi)
+    return mi
+
+
 def mesh_arrays(me):
     """(positions f64 (N,3), face_sizes i32, face_vertices i32, material_index i32, loop_indices or None)."""
     nv, nf, nl = len(me.vertices), len(me.polygons), len(me.loops)
@@ -328,8 +338,7 @@ def mesh_arrays(me):
     me.polygons.foreach_get("loop_start", starts)
     lv = np.empty(nl, np.int32)
     me.loops.foreach_get("vertex_index", lv)
-    mi = np.empty(nf, np.int32)
-    me.polygons.foreach_get("material_index", mi)
+    mi = face_materials(me)
     contiguous = np.zeros(nf, np.int64)
     if nf:
         contiguous[1:] = np.cumsum(sizes[:-1], dtype=np.int64)

@@ -44,6 +44,7 @@ import numpy as np
 from bpy.app.handlers import persistent
 
 from . import bake, writeback
+from . import export as exporter
 
 # {scene name: {frame: {object name: (loops, 4) float32 rgba}}}: the last animation bake
 frame_cache = {}
@@ -62,7 +63,7 @@ _state = {"suspend": 0, "busy": False, "edited": -float("inf")}   # edited: perf
 counters = {"render_skips": 0}   # live updates refused because a render was running (tests)
 _served = {}                     # {scene name: frame whose colours came from frame_cache}
 _pending = {}                    # {scene name: an edit is among its updates waiting for the timer} (UI only)
-_echo = set()                    # meshes written by the last write (their update is ours, not an edit)
+_echo = {}                       # {mesh written by the last write: _geometry() then} (its update is ours)
 
 
 # ----------------------------------------------------------------------------- guards
@@ -205,8 +206,17 @@ def write(scene, colours, force=False):
     written, messages = writeback.write_all(todo, scene)
     for name in written:
         done[name] = todo[name]
-        _echo.add(bpy.data.objects[name].data.name)
+        me = bpy.data.objects[name].data
+        _echo[me.name] = _geometry(me)
     return written, messages
+
+
+def _geometry(me):
+    """A fingerprint of what the light depends on in Mesh `me` (an original), which our colour writes
+    leave alone: its vertices, faces and their materials."""
+    co = np.empty(3 * len(me.vertices), np.float32)
+    me.vertices.foreach_get("co", co)
+    return hash((co.tobytes(), exporter.face_materials(me).tobytes(), len(me.loops)))
 
 
 def remember_written(scene, colours, written):
@@ -401,18 +411,23 @@ def _served_from_cache(scene):
 
 
 def _user_edit(depsgraph):
-    """Did this depsgraph update come from the user (not from our own colour writes)?"""
+    """Did this depsgraph update come from the user (not from our own colour writes)? A mesh we wrote
+    comes back as updated whatever else happened to it: its geometry tells (a script's edit of its
+    vertices on a baked frame was taken for our echo, and the frames were kept)."""
     kinds = tuple(getattr(bpy.types, n) for n in ("Material", "Light", "World", "NodeTree", "Key",
                                                   "Collection", "Armature", "Curve") if hasattr(bpy.types, n))
+
+    def echo(me):
+        return me is not None and _echo.get(me.original.name) == _geometry(me.original)
     for u in depsgraph.updates:
         idb = u.id
         if isinstance(idb, bpy.types.Object):
             if u.is_updated_transform:
                 return True
-            if u.is_updated_geometry and (idb.type != 'MESH' or idb.data is None or idb.data.name not in _echo):
+            if u.is_updated_geometry and (idb.type != 'MESH' or not echo(idb.original.data)):
                 return True
         elif isinstance(idb, bpy.types.Mesh):
-            if idb.name not in _echo:
+            if not echo(idb):
                 return True
         elif isinstance(idb, kinds):
             return True

@@ -657,6 +657,33 @@ def test_bake_animation_is_incremental_and_renders_each_frame(addon, tmp_path):
     assert live.STORE not in scene
 
 
+def test_an_edit_of_a_written_mesh_on_a_baked_frame_drops_the_frames(addon):
+    """On a baked frame our write of its colours comes back as updates of the meshes written. Alone,
+    that keeps the frames; a script's edit of one of those meshes in the same update is an edit all
+    the same: the frames are out of date and the edit is solved (it was taken for our echo, and the
+    frame's colours stayed as baked)."""
+    live = addon.live_update
+    scene = open_blend("animated_room")
+    scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23
+    assert bpy.ops.radiosity.bake_animation() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    scene.frame_set(24)
+    assert live._echo                                          # the baked colours written
+    bpy.context.view_layer.update()
+    assert scene.name in addon.operators.frame_cache           # our echo alone
+    scene.frame_set(1)
+    assert live._echo
+    baked = read(scene)
+    mesh = scene.objects["Box"].data
+    co = np.zeros(3 * len(mesh.vertices))
+    mesh.vertices.foreach_get("co", co)
+    mesh.vertices.foreach_set("co", (co.reshape(-1, 3) * (1.0, 1.0, 0.5)).ravel())
+    mesh.update()
+    bpy.context.view_layer.update()
+    assert scene.name not in addon.operators.frame_cache
+    check_like_a_fresh_bake(scene, baked, "box mesh squashed on a baked frame")
+
+
 def test_cancelled_animation_keeps_colours(addon):
     live = addon.live_update
     scene = open_blend("animated_room")
