@@ -2,9 +2,9 @@
 
     blender -b --factory-startup --python tests/cycles_reference/curved_furnace.py [-- --samples N]
 
-Writes curved_furnace.json: per level 1-3, the mean over all face corners of (1 - rho) B from a
-COMBINED vertex bake of Blender's subdivided cube (limit surface, smooth shaded), settings as in
-cycles_settings.py. Energy balance would give 1; Cycles gives less, because a smooth-shaded corner
+Writes curved_furnace.json: per level 0-3, the mean over all face corners of (1 - rho) B from a
+COMBINED vertex bake of Blender's subdivided cube (limit surface, smooth shaded; level 0: the cube
+itself, flat faces shaded smooth), settings as in cycles_settings.py. Energy balance would give 1; Cycles gives less, because a smooth-shaded corner
 drops the directions under its facet, most at low levels. test_module.py compares the engine's
 solve of the same cube with it.
 """
@@ -30,10 +30,11 @@ def cube(level):
     bpy.ops.mesh.select_all(action='SELECT')
     bpy.ops.mesh.flip_normals()
     bpy.ops.object.mode_set(mode='OBJECT')
-    md = ob.modifiers.new("subsurf", 'SUBSURF')
-    md.levels = md.render_levels = level
-    md.use_limit_surface = True
-    bpy.ops.object.modifier_apply(modifier=md.name)
+    if level > 0:   # at 0 the modifier would still move the corners onto the limit surface
+        md = ob.modifiers.new("subsurf", 'SUBSURF')
+        md.levels = md.render_levels = level
+        md.use_limit_surface = True
+        bpy.ops.object.modifier_apply(modifier=md.name)
     bpy.ops.object.shade_smooth()
     mat = bpy.data.materials.new("furnace")
     mat.use_nodes = True
@@ -78,7 +79,7 @@ def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     samples = int(argv[argv.index("--samples") + 1]) if "--samples" in argv else 4096
     result = {"rho": RHO, "samples": samples, "blender_version": bpy.app.version_string, "levels": {}}
-    for level in (1, 2, 3):
+    for level in (0, 1, 2, 3):
         result["levels"][str(level)] = bake(level, samples)
         print(level, result["levels"][str(level)], flush=True)
     with open(os.path.join(os.path.dirname(__file__), "curved_furnace.json"), "w") as f:

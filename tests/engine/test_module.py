@@ -884,6 +884,27 @@ def test_smooth_shaded_corners_take_the_light_cycles_facets_let_in():
     assert np.abs(got / expected - 1).max() < 1e-3
 
 
+def test_inside_a_smooth_shaded_cube_as_cycles_bakes_it():
+    # The level-0 case of curved_furnace.json: the cube itself, its flat faces shaded smooth, as the
+    # add-on sends it (split to a preset's patch size). Each corner's normal lies along a diagonal,
+    # 54.7 degrees off its three facets, and reflects (1 + cos) / 2 = 0.79 of the light round it;
+    # inside the faces the normals tilt less, and send on more. Cycles' corners: 0.615 of
+    # E / (1 - rho) (min 0.608, max 0.622); ours 0.634, +3.2%, at draft and default alike
+    # (2026-12-05; unsplit faces, 0.617). Where the 3% comes from is not known.
+    with open(os.path.join(os.path.dirname(__file__), "..", "cycles_reference", "curved_furnace.json")) as f:
+        cycles = json.load(f)
+    rho = cycles["rho"]
+    scene = engine.Scene()
+    m = scene.add_material((rho,) * 3, (1.0, 1.0, 1.0))
+    cube = Mesh()
+    cube.add_box((0, 0, 0), (2, 2, 2), m, inward=True)
+    obj = cube.weld().add_to(scene, refine="bilinear", smooth=np.ones(6, bool))
+    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    assert solver.solve()["converged"]
+    ours = np.asarray(solver.corner_radiance(obj)).mean(1) * (1 - rho)
+    assert abs(ours.mean() / cycles["levels"]["0"]["mean"] - 1) < 0.04
+
+
 def test_rays_reach_a_twisted_patch():
     # Nearly no reflection: B - E is rho times the light gathered from the whole surface, most of
     # one bounce and rho of the next; no more than 1 / (1 - rho) in all. A point inside sees all of
