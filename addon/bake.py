@@ -449,9 +449,12 @@ class BakeJob:
         return st
 
     def _send_bent_as_deforming(self):
-        """After the engine refused the change (which leaves its state as it was): whether flat meshes
-        whose own vertices moved can go once more, as deforming, so that the change is still an
-        update. Each such edit used to be a new Solver and a full solve."""
+        """After the engine refused the change: whether flat meshes whose own vertices moved can go
+        once more, as deforming, so that the change is still an update. Each such edit used to be a
+        new Solver and a full solve. A refused update leaves the Solver as it was, but an `add` among
+        the calls took effect when made: sent again, its objects would come twice."""
+        if any(name == "add" for name, _ in self.calls):
+            return False
         aligned = align_export(self.base.export, self.exported, bent=True)
         if sum(m.deforms for m in aligned.meshes) == sum(m.deforms for m in self.export.meshes):
             return False

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 # clean_scene_after is autouse: imported, it leaves the files after this one an empty scene too.
-from test_live_update import (call_names, check_like_a_fresh_bake, clean_scene_after,  # noqa: F401
-                              edit_scene, ms, read)
+from test_live_update import (BOUND, call_names, check_like_a_fresh_bake, clean_scene_after,  # noqa: F401
+                              edit_scene, fresh_bake, ms, read, relative_rms, stacked)
 
 
 # Each setup prepares the scene before the bake, so that the change it returns is the only
@@ -119,27 +119,47 @@ def test_change_is_incremental_and_matches_fresh_bake(addon, setup, call, target
     check_like_a_fresh_bake(scene, before, setup.__name__)
 
 
+def raise_floor(scene, height):
+    """The flat floor's own vertices raised into a pyramid beside the box (as a script, or leaving
+    Edit Mode, moves them): its flat faces bend apart at the vertices they share."""
+    floor = scene.objects["Floor"].data
+    co = np.empty(3 * len(floor.vertices), np.float32)
+    floor.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    co[:, 2] = height * np.clip(1.0 - np.abs(co[:, :2] - 1.0).max(1), 0.0, None)
+    floor.vertices.foreach_set("co", co.ravel())
+    floor.update()
+
+
 def test_vertices_moved_without_a_modifier_bend_a_flat_floor_in_place(addon):
-    """A flat floor's own vertices raised into a pyramid (as a script, or leaving Edit Mode, moves
-    them): its flat faces bend apart at the vertices they share. The first edit sends it once more
-    as deforming (the old one hidden for good, the new one added: no new Solver), the next a
-    set_positions of that one; then as a fresh bake."""
+    """The first such edit sends the floor once more as deforming (the old one hidden for good, the
+    new one added: no new Solver), the next a set_positions of that one; then as a fresh bake."""
     live = addon.live_update
     scene = edit_scene()
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
     scene.radiosity.live_update = True
     before = read(scene)
-    floor = scene.objects["Floor"].data
-    flat = np.empty(3 * len(floor.vertices), np.float32)
-    floor.vertices.foreach_get("co", flat)
-    flat = flat.reshape(-1, 3)
     for height, calls in ((0.15, ["add", "set_visible"]), (0.3, ["set_positions"])):
-        co = flat.copy()
-        co[:, 2] += height * np.clip(1.0 - np.abs(co[:, :2] - 1.0).max(1), 0.0, None)
-        floor.vertices.foreach_set("co", co.ravel())
-        floor.update()
+        raise_floor(scene, height)
         bpy.context.view_layer.update()
         info = live.last_sync[scene.name]
         job = live.live_jobs[scene.name]
         assert info["mode"] == "incremental" and call_names(job) == calls, (info, job.calls)
     check_like_a_fresh_bake(scene, before, "floor's vertices raised")
+
+
+def test_a_floor_bent_in_the_edit_that_adds_an_object_is_solved_anew(addon):
+    """The added object went to the Solver when its call was made: sent again after the refusal, it
+    would come twice. So that edit is a new Solver and a full solve, as every such edit was."""
+    live = addon.live_update
+    scene = edit_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    ms.box("Box2", (0.3, 0.3, 0.3), (-1.0, -1.0, 0.0), 0.0, ms.diffuse("Blue", (0.1, 0.1, 0.8)))
+    raise_floor(scene, 0.3)
+    bpy.context.view_layer.update()
+    job = live.live_jobs[scene.name]
+    assert not job.incremental and "refused" in job.rebuild_reason, job.rebuild_reason
+    assert [m.name for m in job.export.meshes].count("Box2") == 1
+    now = stacked(read(scene))
+    assert relative_rms(now, stacked(fresh_bake(scene))) < BOUND
