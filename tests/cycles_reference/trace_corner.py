@@ -9,19 +9,18 @@ lamps and the world are not traced: the Cornell box has neither). The point is t
 LOOP of OBJECT, raised H along +z or moved F of the way to its face's centroid; it prints the
 radiance leaving it along its face's normal (the `Radiosity` contract), with its standard error,
 beside Cycles' cached corner value. Diffuse, both sides of every face reflect, emission two-sided,
-next-event estimation to the emitting faces, 16 bounces.
+next-event estimation to the emitting faces, up to 64 bounces (a closed furnace at rho 0.8
+within its noise of rho E / (1 - rho)), paths ending where they carry under 1e-6.
 
-2026-12-05, cornell_box, 100,000 paths (5-11 s each): where Cycles' corner is well-posed the trace
-lands 0.8-1.9% above it (Ceiling loop 5 0.2700 +- 0.0012 against 0.2663, TallBox loop 2 1.1786 +-
-0.0011 against 1.1692, ShortBox loop 7 1 mm down 0.0432 +- 0.0003 against 0.0424; not explained).
-ShortBox loop 4, the -y foot, where the box's shadow edge on the floor starts: 0.0706 +- 0.0004 at
-Cycles' inset point (--inset 0.005; Cycles there 0.0715, ours at the corner 0.0719), 0.0994 +-
-0.0005 on the box's vertical edge 0.01 mm up, 0.1018 at 1 cm up it; Cycles' corner 0.0532. The
-corner's value depends on the way one comes to it. Loop 5, the other front foot: 0.0167 inset
-(Cycles 0.0167), 0.0172 on the edge (Cycles' corner 0.0158). A room's concave corner, Room loop
-4: 0.2293 / 0.2279 / 0.2277 at --inset 1e-3 / 1e-4 / 1e-5 (2.8 mm to 0.03 mm in), ours 0.23,
-Cycles' corner 0.2196. At the corner itself the trace is no use: rays to the walls meeting there
-start on them.
+2026-12-05, cornell_box, 100,000 paths (4-19 s each). Where Cycles' corner is well-posed: Ceiling
+loop 5 0.2662 +- 0.0012 (Cycles 0.2663), ShortBox loop 7 1 mm down 0.0424 +- 0.0003 (0.0424),
+TallBox loop 2 1.1774 +- 0.0011 (1.1692: +0.7%, not explained). ShortBox loop 4, the -y foot,
+where the box's shadow edge on the floor starts: 0.0712 +- 0.0004 at Cycles' inset point (--inset
+0.005; Cycles there 0.0715, ours at the corner 0.0719), 0.1016 +- 0.0005 on the box's vertical edge
+1 cm up (0.099 at 0.01 mm, with 16 bounces); Cycles' corner 0.0532. The corner's value depends on
+the way one comes to it. A room's concave corner, Room loop 4: 0.2278 +- 0.0003 at --inset 1e-4
+(0.28 mm in; 0.2293 / 0.2277 at 1e-3 / 1e-5 with 16 bounces), ours 0.23, Cycles' corner 0.2196. At
+the corner itself the trace is no use: rays to the walls meeting there start on them.
 """
 import os
 import sys
@@ -119,7 +118,7 @@ class Tracer:
             weight = np.tile(rho0, (count, 1))
             out = self.direct(p, nn, weight)
             alive = np.arange(count)
-            for bounce in range(16):
+            for bounce in range(64):
                 w = self.cosine(nn[alive])
                 t, k = self.hit(p[alive], w, 1e-9 if bounce == 0 else 1e-7, skip=own if bounce == 0 else None)
                 found = np.isfinite(t)
@@ -129,7 +128,7 @@ class Tracer:
                 out[alive] += weight[alive] * self.direct(q, facing, self.rho[k])
                 weight[alive] *= self.rho[k]
                 p[alive], nn[alive] = q, facing
-                alive = alive[weight[alive].max(1) > 1e-4]
+                alive = alive[weight[alive].max(1) > 1e-6]
                 if not len(alive):
                     break
             values.append(out.mean(1))
