@@ -15,13 +15,13 @@ within its noise of rho E / (1 - rho)), paths ending where they carry under 1e-6
 2026-12-05, cornell_box, 100,000 paths (4-19 s each). Where Cycles' corner is well-posed: Ceiling
 loop 5 0.2662 +- 0.0012 (Cycles 0.2663), ShortBox loop 7 1 mm down 0.0424 +- 0.0003 (0.0424),
 TallBox loop 2 1.1774 +- 0.0011 (1.1692: +0.7%, not explained; its direct light alone, 0.9453 +-
-0.0004, is the engine's within 0.1%: 0.9463 at default, 0.9457 at high). ShortBox loop 4, the -y foot,
-where the box's shadow edge on the floor starts: 0.0712 +- 0.0004 at Cycles' inset point (--inset
-0.005; Cycles there 0.0715, ours at the corner 0.0719), 0.1016 +- 0.0005 on the box's vertical edge
-1 cm up (0.099 at 0.01 mm, with 16 bounces); Cycles' corner 0.0532. The corner's value depends on
-the way one comes to it. A room's concave corner, Room loop 4: 0.2278 +- 0.0003 at --inset 1e-4
-(0.28 mm in; 0.2293 / 0.2277 at 1e-3 / 1e-5 with 16 bounces), ours 0.23, Cycles' corner 0.2196. At
-the corner itself the trace is no use: rays to the walls meeting there start on them.
+0.0004, is the engine's within 0.1%: 0.9463 at default, 0.9457 at high). ShortBox loop 4, the -y
+foot, where the box's shadow edge on the floor starts: 0.0712 +- 0.0004 at Cycles' inset point
+(--inset 0.005; Cycles there 0.0715, ours at the corner 0.0719), 0.1016 +- 0.0005 on the box's
+vertical edge 1 cm up (0.099 at 0.01 mm, with 16 bounces); Cycles' corner 0.0532. The corner's value
+depends on the way one comes to it. A room's concave corner, Room loop 4: 0.2278 +- 0.0003 at
+--inset 1e-4 (0.28 mm in; 0.2293 / 0.2277 at 1e-3 / 1e-5 with 16 bounces), ours 0.23, Cycles' corner
+0.2196. At the corner itself the trace is no use: rays to the walls meeting there start on them.
 """
 import os
 import sys
