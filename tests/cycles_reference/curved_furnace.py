@@ -4,8 +4,9 @@
 
 Writes curved_furnace.json: per level 0-3, the mean over all face corners of (1 - rho) B from a
 COMBINED vertex bake of Blender's subdivided cube (limit surface, smooth shaded; level 0: the cube
-itself, flat faces shaded smooth), settings as in cycles_settings.py. Energy balance would give 1; Cycles gives less, because a smooth-shaded corner
-drops the directions under its facet, most at low levels. test_module.py compares the engine's
+itself, flat faces shaded smooth), settings as in cycles_settings.py. Energy balance would give 1;
+Cycles gives less, because a smooth-shaded corner drops the directions under its facet, most at low
+levels. test_module.py compares the engine's
 solve of the same cube with it.
 """
 import json

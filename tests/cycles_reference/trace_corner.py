@@ -92,7 +92,8 @@ class Tracer:
         t = np.cross(n, helper)
         t /= np.linalg.norm(t, axis=1)[:, None]
         s = np.sqrt(r)
-        return (np.cos(phi) * s)[:, None] * t + (np.sin(phi) * s)[:, None] * np.cross(n, t) + np.sqrt(1 - r)[:, None] * n
+        return ((np.cos(phi) * s)[:, None] * t + (np.sin(phi) * s)[:, None] * np.cross(n, t)
+                + np.sqrt(1 - r)[:, None] * n)
 
     def direct(self, p, n, rho):
         """Light from the emitting faces reflected at points p (normals n on the side lit)."""
