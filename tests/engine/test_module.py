@@ -808,17 +808,24 @@ def test_automatic_relaxation_follows_the_light_the_scene_sends_back():
     assert np.abs(light[0.0].mean(0) / light[1.0].mean(0) - 1).max() < 0.03
 
 
-def curved_furnace(rho, level=3):
-    """Inside a closed Catmull-Clark surface that emits 1 and reflects rho: the solved inner side."""
+def glowing_cube(rho, settings, **refine):
+    """Solved inside a closed 2 m cube (welded, refined as `refine` asks) whose inner side emits 1
+    and reflects rho: (solver, object id)."""
     scene = engine.Scene()
     m = scene.add_material((rho,) * 3, (1.0, 1.0, 1.0))
     cube = Mesh()
     cube.add_box((0, 0, 0), (2, 2, 2), m, inward=True)
-    obj = cube.weld().add_to(scene, refine="catmull_clark", level=level)
-    settings = engine.Settings.preset("default")
-    settings.threshold = 1e-4
+    obj = cube.weld().add_to(scene, **refine)
     solver = engine.Solver(scene, settings)
     assert solver.solve()["converged"]
+    return solver, obj
+
+
+def curved_furnace(rho, level=3):
+    """Inside a closed Catmull-Clark surface that emits 1 and reflects rho: the solved inner side."""
+    settings = engine.Settings.preset("default")
+    settings.threshold = 1e-4
+    solver, obj = glowing_cube(rho, settings, refine="catmull_clark", level=level)
     return solver.refined(obj)[1]
 
 
@@ -895,13 +902,7 @@ def test_inside_a_smooth_shaded_cube_as_cycles_bakes_it():
     with open(os.path.join(os.path.dirname(__file__), "..", "cycles_reference", "curved_furnace.json")) as f:
         cycles = json.load(f)
     rho = cycles["rho"]
-    scene = engine.Scene()
-    m = scene.add_material((rho,) * 3, (1.0, 1.0, 1.0))
-    cube = Mesh()
-    cube.add_box((0, 0, 0), (2, 2, 2), m, inward=True)
-    obj = cube.weld().add_to(scene, refine="bilinear", smooth=np.ones(6, bool))
-    solver = engine.Solver(scene, engine.Settings.preset("draft"))
-    assert solver.solve()["converged"]
+    solver, obj = glowing_cube(rho, engine.Settings.preset("draft"), refine="bilinear", smooth=np.ones(6, bool))
     ours = np.asarray(solver.corner_radiance(obj)).mean(1) * (1 - rho)
     assert abs(ours.mean() / 0.6310 - 1) < 0.01 and abs(ours.mean() / cycles["levels"]["0"]["mean"] - 1) < 0.04
 
