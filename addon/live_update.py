@@ -418,7 +418,8 @@ def _user_edit(depsgraph):
                                                   "Collection", "Armature", "Curve") if hasattr(bpy.types, n))
 
     def echo(me):
-        return me is not None and _echo.get(me.original.name) == _geometry(me.original)
+        me = me.original if me is not None else None
+        return me is not None and me.name in _echo and _echo[me.name] == _geometry(me)
     for u in depsgraph.updates:
         idb = u.id
         if isinstance(idb, bpy.types.Object):
