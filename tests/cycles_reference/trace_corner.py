@@ -36,6 +36,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "addon"))
 from conftest import load_package  # noqa: E402
 import make_references  # noqa: E402
 import reference  # noqa: E402
+from smooth_cube_walk import cosine_about  # noqa: E402
 
 
 def triangles(sx):
@@ -86,15 +87,6 @@ class Tracer:
         k = np.argmin(t, axis=1)
         return t[np.arange(len(o)), k], k
 
-    def cosine(self, n):
-        phi, r = 2 * np.pi * self.rng.random(len(n)), self.rng.random(len(n))
-        helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-        t = np.cross(n, helper)
-        t /= np.linalg.norm(t, axis=1)[:, None]
-        s = np.sqrt(r)
-        return ((np.cos(phi) * s)[:, None] * t + (np.sin(phi) * s)[:, None] * np.cross(n, t)
-                + np.sqrt(1 - r)[:, None] * n)
-
     def direct(self, p, n, rho):
         """Light from the emitting faces reflected at points p (normals n on the side lit)."""
         k = self.lights[self.rng.choice(len(self.lights), len(p), p=self.light_p)]
@@ -121,7 +113,7 @@ class Tracer:
             out = self.direct(p, nn, weight)
             alive = np.arange(count)
             for bounce in range(64):
-                w = self.cosine(nn[alive])
+                w = cosine_about(nn[alive], self.rng)
                 t, k = self.hit(p[alive], w, 1e-9 if bounce == 0 else 1e-7, skip=own if bounce == 0 else None)
                 found = np.isfinite(t)
                 alive, w, t, k = alive[found], w[found], t[found], k[found]
