@@ -4,6 +4,8 @@
     ref = load("cornell_box")                 # or load("animated_room", frame=12)
     err = relative_rms(engine_corner_values, corner_reference(ref, "Room"))
     err_inset = relative_rms(engine_corner_values, corner_reference(ref, "Room", inset=True))
+    traced = traced_reference(load_traced("cornell_box"), "Room")   # None where not traced
+    err_limit = relative_rms(engine_corner_values, limit_reference(corner_reference(ref, "Room"), traced, ~open_))
     open_ = ~junction_faces(corner_positions, corner_normals, faces).any(1)   # off junctions
 
 Layouts are documented in make_references.py.
@@ -25,6 +27,15 @@ def load(scene, frame=None):
         return {k: z[k] for k in z.files}
 
 
+def load_traced(scene, frame=None):
+    """{key: array} of the scene's traced corners (trace_corner.py ... all), or None."""
+    path = path_of(scene, frame).replace(".npz", "_traced.npz")
+    if not os.path.exists(path):
+        return None
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
+
 def objects(ref):
     return sorted({k.split(":")[0] for k in ref if ":" in k})
 
@@ -37,6 +48,20 @@ def corner_reference(ref, name, inset=False):
     if key not in ref:
         raise KeyError(f"{key} is not in this file: bake it with make_references.py -- --inset-only")
     return ref[key]
+
+
+def traced_reference(traced, name):
+    """(K,3) a path tracer's values a hair inside object name's cage corners (trace_corner.py), loop
+    order; None if it was not traced."""
+    key = name + ":corner_traced"
+    return None if traced is None or key not in traced else traced[key]
+
+
+def limit_reference(cycles, traced, junction):
+    """Per corner: Cycles' value where it is well-posed, and the traced one on a junction
+    (`junction`, junction_faces(...).any(1)), where Cycles' vertex bake gives neither limit of the
+    corner's value (trace_corner.py)."""
+    return np.where(np.asarray(junction)[:, None], traced, cycles)
 
 
 def grid_positions(positions, face_vertices, n, transform=None):

@@ -1,16 +1,21 @@
-"""A path tracer in plain numpy for one corner of a sample scene: an independent check of both
+"""A path tracer in plain numpy for the corners of a sample scene: an independent check of both
 Cycles' corner values and ours where they disagree.
 
     blender -b --factory-startup --python tests/cycles_reference/trace_corner.py -- SCENE OBJECT LOOP
-        [--up H] [--inset F] [--paths N]
+        [--up H] [--inset F] [--paths N] [--frame F]
 
-The scene is what the add-on exports (its meshes, materials and emission, in the engine's units;
-lamps and the world are not traced: the Cornell box has neither). The point is the corner of loop
-LOOP of OBJECT, raised H along +z or moved F of the way to its face's centroid; it prints the
-radiance leaving it along its face's normal (the `Radiosity` contract), with its standard error,
-beside Cycles' cached corner value. Diffuse, both sides of every face reflect, emission two-sided,
-next-event estimation to the emitting faces, up to 64 bounces (a closed furnace at rho 0.8
-within its noise of rho E / (1 - rho)), paths ending where they carry under 1e-6.
+The scene is what the add-on exports at that frame (its meshes' cages, materials and emission and
+its point lamps of radius 0, in the engine's units; the world is not traced: the Cornell box and
+the animated room have none). The point is the corner of loop LOOP of OBJECT, raised H along +z or
+moved F of the way to its face's centroid; it prints the radiance leaving it along its face's
+normal (the `Radiosity` contract), with its standard error, beside Cycles' cached corner value.
+Diffuse, both sides of every face reflect, emission two-sided, next-event estimation to the
+emitting faces and lamps, up to 64 bounces (a closed furnace at rho 0.8 within its noise of
+rho E / (1 - rho)), paths ending where they carry under 1e-6. LOOP `all` traces every
+non-emitting corner of OBJECT and adds them to SCENE[_fNNN]_traced.npz ("<object>:corner_traced"
+and "<object>:corner_traced_error", (K,3) in loop order, NaN at emitting corners; "traced_inset",
+"traced_paths"): the reference at junctions, where Cycles' own corner value is ill-posed
+(reference.py: limit_reference).
 
 2026-12-05, cornell_box, 100,000 paths (4-19 s each). Where Cycles' corner is well-posed: Ceiling
 loop 5 0.2662 +- 0.0012 (Cycles 0.2663), ShortBox loop 7 1 mm down 0.0424 +- 0.0003 (0.0424),
@@ -23,6 +28,7 @@ depends on the way one comes to it. A room's concave corner, Room loop 4: 0.2278
 --inset 1e-4 (0.28 mm in; 0.2293 / 0.2277 at 1e-3 / 1e-5 with 16 bounces), ours 0.23, Cycles' corner
 0.2196. At the corner itself the trace is no use: rays to the walls meeting there start on them.
 """
+import fcntl
 import os
 import sys
 import time
@@ -55,8 +61,17 @@ def triangles(sx):
     return np.array(tris), np.array(rho, float), np.array(emission, float)
 
 
+def point_lamps(sx):
+    """(L,3) positions and (L,3) intensities (W/sr) of the scene's lamps: point lamps of radius 0 only."""
+    lamps = [l for l in sx.lights if l.visible]
+    if any(l.kind != "point" or l.radius != 0 for l in lamps):
+        raise SystemExit("trace_corner traces point lamps of radius 0 only")
+    return (np.array([l.position for l in lamps], float).reshape(-1, 3),
+            np.array([l.intensity for l in lamps], float).reshape(-1, 3))
+
+
 class Tracer:
-    def __init__(self, tris, rho, emission, seed=7):
+    def __init__(self, tris, rho, emission, lamps, seed=7):
         self.v0, self.e1, self.e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
         n = np.cross(self.e1, self.e2)
         area = 0.5 * np.linalg.norm(n, axis=1)
@@ -65,6 +80,7 @@ class Tracer:
         self.lights = np.nonzero(emission.sum(1) > 0)[0]
         self.light_area = area[self.lights].sum()
         self.light_p = area[self.lights] / self.light_area
+        self.lamp_position, self.lamp_intensity = lamps
         self.rng = np.random.default_rng(seed)
 
     def hit(self, o, w, tmin, tmax=None, skip=None):
@@ -88,7 +104,18 @@ class Tracer:
         return t[np.arange(len(o)), k], k
 
     def direct(self, p, n, rho):
-        """Light from the emitting faces reflected at points p (normals n on the side lit)."""
+        """Light from the emitting faces and point lamps reflected at points p (normals n on the side lit)."""
+        out = np.zeros((len(p), 3))
+        for position, intensity in zip(self.lamp_position, self.lamp_intensity):
+            d = position - p
+            dist = np.linalg.norm(d, axis=1)
+            w = d / dist[:, None]
+            cos_p = (n * w).sum(1)
+            t, _ = self.hit(p, w, 1e-7, dist * (1 - 1e-7))
+            seen = np.isinf(t) & (cos_p > 0)
+            out += np.where(seen[:, None], rho / np.pi * intensity * (cos_p / dist ** 2)[:, None], 0.0)
+        if not len(self.lights):
+            return out
         k = self.lights[self.rng.choice(len(self.lights), len(p), p=self.light_p)]
         a, b = np.sqrt(self.rng.random(len(p))), self.rng.random(len(p))
         y = self.v0[k] + (a * (1 - b))[:, None] * self.e1[k] + (a * b)[:, None] * self.e2[k]
@@ -98,11 +125,11 @@ class Tracer:
         cos_p, cos_y = (n * w).sum(1), np.abs((self.normal[k] * w).sum(1))
         t, _ = self.hit(p, w, 1e-7, dist * (1 - 1e-7))
         seen = np.isinf(t) & (cos_p > 0)
-        return np.where(seen[:, None], rho / np.pi * self.emission[k] * (cos_p * cos_y / dist ** 2)[:, None]
-                        * self.light_area, 0.0)
+        return out + np.where(seen[:, None], rho / np.pi * self.emission[k] * (cos_p * cos_y / dist ** 2)[:, None]
+                              * self.light_area, 0.0)
 
     def radiance(self, x, n, paths, batch=20000):
-        """Mean and standard error of the radiance leaving point x (normal n) of a non-emitting face."""
+        """Mean and standard error (RGB) of the radiance leaving point x (normal n) of a non-emitting face."""
         own = (np.abs(((x - self.v0) * self.normal).sum(1)) < 1e-6) & ((self.normal @ n) > 0.999)
         rho0 = self.rho[own][0]
         values = []
@@ -125,27 +152,55 @@ class Tracer:
                 alive = alive[weight[alive].max(1) > 1e-6]
                 if not len(alive):
                     break
-            values.append(out.mean(1))
+            values.append(out)
         values = np.concatenate(values)
-        return values.mean(), values.std() / np.sqrt(len(values))
+        return values.mean(0), values.std(0) / np.sqrt(len(values))
+
+
+def traced_path(scene, frame=None):
+    return reference.path_of(scene, frame).replace(".npz", "_traced.npz")
+
+
+def save(scene, frame, name, values, errors, inset, paths):
+    """Adds one object's traced corners to the scene's _traced.npz (a lock: objects run side by side)."""
+    path = traced_path(scene, frame)
+    with open(path + ".lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        data = dict(np.load(path)) if os.path.exists(path) else {}
+        data.update({name + ":corner_traced": values.astype(np.float32),
+                     name + ":corner_traced_error": errors.astype(np.float32),
+                     "traced_inset": np.float64(inset), "traced_paths": np.int64(paths)})
+        np.savez_compressed(path, **data)
+    os.remove(path + ".lock")
 
 
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:]
-    scene, name, loop = argv[0], argv[1], int(argv[2])
+    scene, name = argv[0], argv[1]
     up = float(argv[argv.index("--up") + 1]) if "--up" in argv else 0.0
     inset = float(argv[argv.index("--inset") + 1]) if "--inset" in argv else 0.0
     paths = int(argv[argv.index("--paths") + 1]) if "--paths" in argv else 200_000
+    frame = int(argv[argv.index("--frame") + 1]) if "--frame" in argv else None
     bpy.ops.wm.open_mainfile(filepath=os.path.join(HERE, "..", "..", "sample_blends", scene + ".blend"))
-    tracer = Tracer(*triangles(load_package().export.export_scene()))
-    co, normals, faces = make_references.world_faces(bpy.data.objects[name])
-    face = faces[np.searchsorted(np.cumsum([len(f) for f in faces]), loop, side="right")]
-    x = co[loop] + np.array([0.0, 0.0, up]) + inset * (face.mean(0) - co[loop])
-    t = time.perf_counter()
-    mean, error = tracer.radiance(x, normals[loop], paths)
-    cycles = reference.corner_reference(reference.load(scene), name)[loop].mean()
-    print(f"{name} loop {loop} at {np.round(x, 5)}: {mean:.4f} +- {error:.4f} (Cycles' corner {cycles:.4f}); "
-          f"{time.perf_counter() - t:.0f} s")
+    if frame is not None:
+        bpy.context.scene.frame_set(frame)
+    sx = load_package().export.export_scene()
+    tracer = Tracer(*triangles(sx), point_lamps(sx))
+    ob = bpy.data.objects[name]
+    co, normals, faces = make_references.world_faces(ob)
+    everything = argv[2] == "all"
+    loops = np.nonzero(~make_references.emitting_corners(ob))[0] if everything else [int(argv[2])]
+    cycles = reference.corner_reference(reference.load(scene, frame), name).mean(1)
+    values, errors = np.full((len(co), 3), np.nan), np.full((len(co), 3), np.nan)
+    for loop in loops:
+        face = faces[np.searchsorted(np.cumsum([len(f) for f in faces]), loop, side="right")]
+        x = co[loop] + np.array([0.0, 0.0, up]) + inset * (face.mean(0) - co[loop])
+        t = time.perf_counter()
+        values[loop], errors[loop] = tracer.radiance(x, normals[loop], paths)
+        print(f"{name} loop {loop} at {np.round(x, 5)}: {values[loop].mean():.4f} +- {errors[loop].mean():.4f} "
+              f"(Cycles' corner {cycles[loop]:.4f}); {time.perf_counter() - t:.0f} s", flush=True)
+    if everything:
+        save(scene, frame, name, values, errors, inset, paths)
 
 
 main()
