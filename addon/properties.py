@@ -62,7 +62,7 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
         name="Exact Reflected Contact Light", default=False,
         description="With Exact Contact Light, the reflected light of those surfaces too: a box's foot on "
                     "a floor and a room's corners come closer to Cycles, for about 30 ms a corner beside "
-                    "surfaces whose light varies (on at Reference; worked out anew after every update)")
+                    "surfaces whose light varies (on at High and Reference; worked out anew after every update)")
     db_cache_mb: FloatProperty(
         name="dB Cache (MB)", default=256.0, min=0.0, soft_max=4096.0, precision=0,
         description="Memory an update may keep of what the scene around a moving object does to the "

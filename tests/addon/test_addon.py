@@ -81,6 +81,7 @@ def test_preset_fills_knobs(addon):
         assert p.samples_direct == s.samples_direct and p.samples_indirect == s.samples_indirect
         assert p.patch_size_relative == pytest.approx(s.patch_size_relative, rel=1e-6)
         assert p.threshold == pytest.approx(s.threshold, rel=1e-6)
+        assert p.exact_near_reflected == s.exact_near_reflected == (name == 'HIGH')
     p.samples_direct = 7
     assert addon.bake.engine_settings(p).samples_direct == 7
     p.live_update = True

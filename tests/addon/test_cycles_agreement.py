@@ -2,25 +2,29 @@
 
 Metric (the issue's): relative RMS (reference.relative_rms: sqrt(mean |v - r|^2) / mean(r), all
 channels) over every non-emitting face corner of the scene, i.e. the values a user sees.
-The issue asks for 2% (default preset) and 1% (high). Measured on this machine (2026-12-03, the
-bench alone; references' corners at 262,144 spp, ~0.2% noise), junction / inset metric, and off
-junctions (reference.junction_faces: corners on another surface that rises in front of theirs, a
-room's corners, a box's feet; there Cycles' own corner value is ill-posed), with bake times:
+The issue asks for 2% (default preset) and 1% (high). Measured on this machine (2026-12-06, the
+bench alone; references' corners at 262,144 spp, ~0.2% noise): junction / inset / limit metric,
+and off junctions (reference.junction_faces: corners on another surface that rises in front of
+theirs, a room's corners, a box's feet; there Cycles' own corner value is ill-posed), with bake
+times; `high` has Exact Reflected Contact Light:
 
-    scene             default                           high
-    cornell_box        1.22% / 1.40%, 0.30%  (1.5 s)     1.39% / 1.75%, 0.26%  (12 s)
-    subsurf_room       1.40% / 2.48%, 0.90%  (3.1 s)     1.12% / 2.93%, 0.81%  (26 s)
-    animated_room@1    1.31% / 2.38%, 0.59%  (3.9 s)     0.92% / 2.49%, 0.41%  (41 s)
-    animated_room@12   1.71% / 2.36%, 0.91%  (3.6 s)     1.15% / 2.43%, 0.59%  (69 s)
-    animated_room@24   1.45% / 2.52%, 0.81%  (3.7 s)     0.94% / 2.56%, 0.49%  (51 s)
+    scene             default                                high
+    cornell_box        1.25% / 1.40% / 0.83%, 0.33% (1.6 s)   1.15% / 1.49% / 0.47%, 0.26% (12.5 s)
+    subsurf_room       1.38% / 2.50% /   -  , 0.88% (3.5 s)   0.92% / 3.11% /   -  , 0.81% (26 s)
+    animated_room@1    1.29% / 2.38% / 1.28%, 0.58% (4.6 s)   0.61% / 2.56% / 0.37%, 0.40% (41 s)
+    animated_room@12   1.71% / 2.38% / 1.26%, 0.93% (4.6 s)   1.02% / 2.44% / 0.55%, 0.59% (42 s)
+    animated_room@24   1.43% / 2.54% / 1.20%, 0.82% (4.5 s)   0.81% / 2.60% / 0.41%, 0.48% (42 s)
 
 Off junctions count 40 of 88 corners (Cornell box), 36 of 68 (subsurf room: the Blob's corners,
-whose three Cycles values differ by up to 1.4% between faces) and 12 of 44. Earlier figures, and
-what changed them, are in the git history.
+whose three Cycles values differ by up to 1.4% between faces) and 12 of 44. The subsurf room is
+not traced (the tracer takes cages; its Blob is a Subdivision Surface). Cycles' own corners are
+1.06 / 0.48 / 1.11 / 0.77% from the limit reference (Cornell box, animated room @1 / @12 / @24).
+Earlier figures, and what changed them, are in the git history.
 
-The bounds below are these plus a small margin, NOT the issue's 1% at high, which only the animated
-room at frames 1 and 24 meets.
-Tightening them is the engine's work; do not loosen them without measuring.
+The bounds below are these plus a small margin, NOT the issue's 1% at high against Cycles'
+corners, which the Cornell box and the animated room at frame 12 miss; against the limit
+reference every traced scene meets it. Tightening them is the engine's work; do not loosen them
+without measuring.
 
 The inset metric compares the same `Radiosity` corner values (our value at a corner stands for the
 face near it) with Cycles baked 0.5% of the way from each corner to its face's centroid
@@ -28,11 +32,16 @@ face near it) with Cycles baked 0.5% of the way from each corner to its face's c
 junction with another surface Cycles' own corner value is ill-posed (Cornell ShortBox's foot: 0.053
 at the corner, 0.072 a few millimetres up the face); at a room's concave corners, though, Cycles'
 value rises steadily into the face, so there the inset reference is the value 1-2 cm in and our
-corner values sit nearer the junction one (Room: 0.8-2.7% junction, 3.1-5.2% inset). The test
-prints both per object and the five corners worst against the junction reference (run with -s).
+corner values sit nearer the junction one (Room: 0.8-2.7% junction, 3.1-5.2% inset). The limit
+metric keeps Cycles' corners off junctions and takes, on them, a numpy path tracer's value 1e-5 of
+the way into the corner's face (trace_corner.py, 100,000 paths a corner, *_traced.npz): the value
+the face holds as one comes to its corner. Off junctions the tracer is within its noise of Cycles
+(0.40-0.61% RMS); on them it parts from Cycles both ways by up to 25%, and sides with ours (the
+Cornell ShortBox's foot: traced 0.0708, Cycles 0.0532, ours 0.0733). The test prints every metric
+per object and the five corners worst against the junction reference (run with -s).
 
 The default-preset bakes take 2-4 s each: only cornell_box and subsurf_room run by default;
-DR_SLOW=1 runs every scene and frame, and the high preset (12-70 s a bake).
+DR_SLOW=1 runs every scene and frame, and the high preset (12-45 s a bake).
 """
 import os
 import sys
@@ -54,39 +63,38 @@ SLOW = os.environ.get("DR_SLOW") == "1"
 # corner against Cycles' value at the corner itself (the issue's metric); "inset", against Cycles a
 # little inside the faces (make_references.py: corner_inset); "open", the corners off junctions
 # (reference.junction_faces), where Cycles' corner is well-posed, checked where measured (None:
-# printed only). The issue's own bound stands in for the first two where it is met (within()).
-METRICS = ("junction", "inset", "open")
+# printed only); "limit", Cycles' corner off junctions and on them a path tracer's value a hair
+# inside the corner's face (reference.limit_reference; scenes traced by trace_corner.py only).
+# The issue's own bound stands in for all but "open" where it is met (within()).
+METRICS = ("junction", "inset", "open", "limit")
 BOUNDS = {
-    ("cornell_box", None, "DEFAULT"): (0.014, 0.016, 0.005),
-    ("subsurf_room", None, "DEFAULT"): (0.016, 0.028, 0.011),
-    ("animated_room", 1, "DEFAULT"): (0.015, 0.027, 0.009),
-    ("animated_room", 12, "DEFAULT"): (0.019, 0.026, None),
-    ("animated_room", 24, "DEFAULT"): (0.017, 0.028, None),
-    ("cornell_box", None, "HIGH"): (0.016, 0.02, None),
-    ("subsurf_room", None, "HIGH"): (0.013, 0.032, None),
-    ("animated_room", 1, "HIGH"): (0.011, 0.028, None),
-    ("animated_room", 12, "HIGH"): (0.013, 0.027, None),
-    ("animated_room", 24, "HIGH"): (0.011, 0.028, None),
-    # HIGH with Exact Reflected Contact Light (preset+REFLECTED; 2026-12-04: 1.15% / 1.49%, 0.92% /
-    # 3.11%, 0.61% / 2.56%, 1.02% / 2.44%, 0.81% / 2.60%, junction / inset, in the order below).
-    ("cornell_box", None, "HIGH+REFLECTED"): (0.0125, 0.016, None),
-    ("subsurf_room", None, "HIGH+REFLECTED"): (0.0095, 0.033, None),
-    ("animated_room", 1, "HIGH+REFLECTED"): (0.0068, 0.027, None),
-    ("animated_room", 12, "HIGH+REFLECTED"): (0.011, 0.026, None),
-    ("animated_room", 24, "HIGH+REFLECTED"): (0.0088, 0.028, None),
+    ("cornell_box", None, "DEFAULT"): (0.014, 0.016, 0.005, 0.0095),
+    ("subsurf_room", None, "DEFAULT"): (0.016, 0.028, 0.011, None),
+    ("animated_room", 1, "DEFAULT"): (0.015, 0.027, 0.009, 0.0145),
+    ("animated_room", 12, "DEFAULT"): (0.019, 0.026, None, 0.014),
+    ("animated_room", 24, "DEFAULT"): (0.017, 0.028, None, 0.0135),
+    # HIGH has had Exact Reflected Contact Light since 2026-12-06 (without it, 2026-12-04: 1.44%,
+    # 1.12%, 0.92%, 1.16%, 0.94% at the corners; against the limit reference 1.00% on the Cornell
+    # box, 0.87% on the animated room at frame 12).
+    ("cornell_box", None, "HIGH"): (0.0125, 0.016, None, 0.006),
+    ("subsurf_room", None, "HIGH"): (0.0095, 0.033, None, None),
+    ("animated_room", 1, "HIGH"): (0.0068, 0.027, None, 0.0045),
+    ("animated_room", 12, "HIGH"): (0.011, 0.026, None, 0.0065),
+    ("animated_room", 24, "HIGH"): (0.0088, 0.028, None, 0.005),
 }
 # reference kind -> corner_reference's inset: at the corner itself (ill-posed where it lies on a
 # junction with another surface), or a little inside its face
 REFERENCES = {"junction": False, "inset": True}
 FAST = {("cornell_box", None, "DEFAULT"), ("subsurf_room", None, "DEFAULT")}
-ISSUE_BOUND = {"DEFAULT": 0.02, "HIGH": 0.01, "HIGH+REFLECTED": 0.01}
+ISSUE_BOUND = {"DEFAULT": 0.02, "HIGH": 0.01}
 
 
-def scene_corners(scene, ref):
-    """The scene's non-emitting corners: object names, world positions, our values, Cycles' values
-    by reference kind, and whether each lies on a junction (reference.junction_faces)."""
+def scene_corners(scene, ref, traced):
+    """The scene's non-emitting corners: object names, world positions, our values, the reference
+    values by kind ("traced" and "limit" too where `traced` holds every object: reference.py), and
+    whether each lies on a junction (reference.junction_faces)."""
     names, pos, nrm, vals, refs = [], [], [], [], {kind: [] for kind in REFERENCES}
-    faces = []
+    faces, traced_refs = [], []
     for ob in scene.objects:
         if ob.type != 'MESH' or ob.hide_render:
             continue
@@ -102,16 +110,22 @@ def scene_corners(scene, ref):
         vals.append(v[keep])
         for kind, inset in REFERENCES.items():
             refs[kind].append(reference.corner_reference(ref, ob.name, inset)[keep])
+        t = reference.traced_reference(traced, ob.name)
+        traced_refs.append(None if t is None else t[keep])
     pos = np.concatenate(pos)
-    return (np.array(names), pos, np.concatenate(vals), {kind: np.concatenate(r) for kind, r in refs.items()},
-            reference.junction_faces(pos, np.concatenate(nrm), faces).any(1))
+    junction = reference.junction_faces(pos, np.concatenate(nrm), faces).any(1)
+    refs = {kind: np.concatenate(r) for kind, r in refs.items()}
+    if all(t is not None for t in traced_refs):
+        refs["traced"] = np.concatenate(traced_refs)
+        refs["limit"] = reference.limit_reference(refs["junction"], refs["traced"], junction)
+    return np.array(names), pos, np.concatenate(vals), refs, junction
 
 
 def within(err, case):
     """Each metric's measured bound; for the junction and inset metrics, the issue's bound where it
     is met. The open metric is not the issue's: 2% would leave its bound (0.8-1.6%) nothing to decide."""
     issue = ISSUE_BOUND[case[2]]
-    return all(bound is None or err[m] <= (bound if m == "open" else max(bound, issue))
+    return all(bound is None or m not in err or err[m] <= (bound if m == "open" else max(bound, issue))
                for m, bound in zip(METRICS, BOUNDS[case]))
 
 
@@ -126,10 +140,10 @@ def test_agreement_with_cycles(addon, case):
     scene = bpy.context.scene
     if frame is not None:
         scene.frame_set(frame)
-    scene.radiosity.preset, _, reflected = preset.partition("+")
-    scene.radiosity.exact_near_reflected = bool(reflected)
+    scene.radiosity.preset = preset
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
-    names, pos, v, refs, junction = scene_corners(scene, reference.load(name, frame))
+    names, pos, v, refs, junction = scene_corners(scene, reference.load(name, frame),
+                                                  reference.load_traced(name, frame))
     err = {}
     for kind, r in refs.items():
         err[kind] = reference.relative_rms(v, r)
@@ -139,8 +153,12 @@ def test_agreement_with_cycles(addon, case):
     err["open"] = reference.relative_rms(v, refs["junction"], ~junction)
     print(f"\n  off junctions ({(~junction).sum()} of {len(junction)} corners): {100 * err['open']:.2f}%, "
           f"on them {100 * reference.relative_rms(v, refs['junction'], junction):.2f}%", end="")
+    if "traced" in refs:  # the tracer against Cycles where both are well-posed: its own check
+        print(f"\n  traced against Cycles off junctions: "
+              f"{100 * reference.relative_rms(refs['traced'], refs['junction'], ~junction):.2f}%; Cycles' "
+              f"corners against the limit: {100 * reference.relative_rms(refs['junction'], refs['limit']):.2f}%", end="")
     print(f"  ({scene.radiosity.last_seconds:.1f} s); worst corners against the junction reference:")
     for i in np.argsort(-((v - refs["junction"]) ** 2).sum(1))[:5]:
         print(f"  {names[i]} ({pos[i][0]:+.3f},{pos[i][1]:+.3f},{pos[i][2]:+.3f}) ours {v[i].mean():.4f} "
-              f"junction {refs['junction'][i].mean():.4f} inset {refs['inset'][i].mean():.4f}")
+              + " ".join(f"{kind} {r[i].mean():.4f}" for kind, r in refs.items()))
     assert within(err, case), err

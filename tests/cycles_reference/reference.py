@@ -4,9 +4,9 @@
     ref = load("cornell_box")                 # or load("animated_room", frame=12)
     err = relative_rms(engine_corner_values, corner_reference(ref, "Room"))
     err_inset = relative_rms(engine_corner_values, corner_reference(ref, "Room", inset=True))
+    open_ = ~junction_faces(corner_positions, corner_normals, faces).any(1)   # off junctions
     traced = traced_reference(load_traced("cornell_box"), "Room")   # None where not traced
     err_limit = relative_rms(engine_corner_values, limit_reference(corner_reference(ref, "Room"), traced, ~open_))
-    open_ = ~junction_faces(corner_positions, corner_normals, faces).any(1)   # off junctions
 
 Layouts are documented in make_references.py.
 """
