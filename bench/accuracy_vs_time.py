@@ -7,7 +7,7 @@
 
 --quick: cornell_box, draft, Cycles at 16/64 spp (corners) and 16 (dense), into results/*_quick.* (~30 s).
 --keep-cycles: only our presets run; Cycles' rows (which do not change with the engine) and ours of
-the scenes not run are kept from the CSV as they are (~3 min for draft, default and high).
+the scenes and presets not run are kept from the CSV as they are (~3 min for draft, default and high).
 The full run took 28 min on 2 cores (2026-12-01: high 42-128 s per scene; reference 428 s on the
 Cornell box, stopped at 600 s on the subsurf room, skipped on the animated room).
 
@@ -424,7 +424,7 @@ def main():
     rows, details = [], {}
     if opt["keep_cycles"]:  # and whatever of ours is not run again
         run = {label(name, SCENES[name]) for name in opt["scenes"]}
-        rows = [r for r in kept if r["method"] != "ours" or r["scene"] not in run]
+        rows = [r for r in kept if r["method"] != "ours" or r["scene"] not in run or r["setting"] not in opt["presets"]]
     for name in opt["scenes"]:
         frame = SCENES[name]
         if name == opt["scenes"][0] and not opt["keep_cycles"]:
