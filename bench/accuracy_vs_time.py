@@ -107,14 +107,14 @@ def corner_table(scene, read, ref):
     return None if read is None else np.concatenate(vals), np.concatenate(refs), where
 
 
-def limit_error(scene, values, r, where, traced):
+def limit_error(values, r, where, kinds, traced):
     """Relative RMS of `values` against the limit reference at the corners `where` (r: Cycles'
-    corners there), as a CSV field; "" where the scene is not traced."""
+    corners there, kinds: classify's), as a CSV field; "" where the scene is not traced."""
     per = {o: reference.traced_reference(traced, o) for o in dict.fromkeys(o for o, _ in where)}
     if any(t is None for t in per.values()):
         return ""
     t = np.array([per[o][li] for o, li in where])
-    limit = reference.limit_reference(r, t, np.array(classify(scene, where)) != "other")
+    limit = reference.limit_reference(r, t, np.array(kinds) != "other")
     return f"{reference.relative_rms(values, limit):.5f}"
 
 
@@ -125,7 +125,7 @@ def cycles_converged(name, frame):
     _, r, where = corner_table(scene, None, ref)
     return dict(scene=label(name, frame), method="cycles_converged", setting="262144",
                 seconds=f"{float(ref['seconds_corner']):.3f}", corner_rms="", dense_rms="",
-                limit_rms=limit_error(scene, r, r, where, traced), load1="",
+                limit_rms=limit_error(r, r, where, classify(scene, where), traced), load1="",
                 note="the corner reference itself; seconds as it was baked")
 
 
@@ -190,10 +190,11 @@ def run_ours(pkg, name, frame, preset, max_seconds):
         return row, None
     v, r, where = corner_table(scene, lambda ob: pkg.writeback.read_mesh(ob.data)[:, :3], ref)
     corner = reference.relative_rms(v, r)
-    limit = limit_error(scene, v, r, where, reference.load_traced(name, frame))
+    kinds = classify(scene, where)
+    limit = limit_error(v, r, where, kinds, reference.load_traced(name, frame))
     dense = dense_error(job, ref)
     st = job.stats
-    detail = dict(values=v, ref=r, where=where, kinds=classify(scene, where))
+    detail = dict(values=v, ref=r, where=where, kinds=kinds)
     seconds = median_time(lambda: once()[2][3], total)
     row.update(seconds=f"{seconds:.3f}", corner_rms=f"{corner:.5f}", dense_rms=f"{dense:.5f}", limit_rms=limit,
                note=f"export {t_export:.2f} s, solve {t_solve:.2f} s, write {t_write:.3f} s; "
@@ -238,7 +239,7 @@ def run_cycles(name, frame, spp):
     load1 = os.getloadavg()[0]
     v, r, where = corner_table(scene, read_attr, ref)
     corner = reference.relative_rms(v, r)
-    limit = limit_error(scene, v, r, where, reference.load_traced(name, frame))
+    limit = limit_error(v, r, where, classify(scene, where), reference.load_traced(name, frame))
     seconds = median_time(lambda: cycles_bake(open_scene(name, frame), spp), seconds)
     n = len(v)
     note = f"{n} corners" + ("; includes the reference's own error (README)" if spp >= 1024 else "")

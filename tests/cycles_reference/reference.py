@@ -27,9 +27,13 @@ def load(scene, frame=None):
         return {k: z[k] for k in z.files}
 
 
+def traced_path_of(scene, frame=None):
+    return path_of(scene, frame).replace(".npz", "_traced.npz")
+
+
 def load_traced(scene, frame=None):
     """{key: array} of the scene's traced corners (trace_corner.py ... all), or None."""
-    path = path_of(scene, frame).replace(".npz", "_traced.npz")
+    path = traced_path_of(scene, frame)
     if not os.path.exists(path):
         return None
     with np.load(path) as z:

@@ -157,16 +157,12 @@ class Tracer:
         return values.mean(0), values.std(0) / np.sqrt(len(values))
 
 
-def traced_path(scene, frame=None):
-    return reference.path_of(scene, frame).replace(".npz", "_traced.npz")
-
-
 def save(scene, frame, name, values, errors, inset, paths):
     """Adds one object's traced corners to the scene's _traced.npz (a lock: objects run side by side)."""
-    path = traced_path(scene, frame)
+    path = reference.traced_path_of(scene, frame)
     with open(path + ".lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        data = dict(np.load(path)) if os.path.exists(path) else {}
+        data = reference.load_traced(scene, frame) or {}
         data.update({name + ":corner_traced": values.astype(np.float32),
                      name + ":corner_traced_error": errors.astype(np.float32),
                      "traced_inset": np.float64(inset), "traced_paths": np.int64(paths)})
@@ -192,8 +188,9 @@ def main():
     loops = np.nonzero(~make_references.emitting_corners(ob))[0] if everything else [int(argv[2])]
     cycles = reference.corner_reference(reference.load(scene, frame), name).mean(1)
     values, errors = np.full((len(co), 3), np.nan), np.full((len(co), 3), np.nan)
+    face_ends = np.cumsum([len(f) for f in faces])
     for loop in loops:
-        face = faces[np.searchsorted(np.cumsum([len(f) for f in faces]), loop, side="right")]
+        face = faces[np.searchsorted(face_ends, loop, side="right")]
         x = co[loop] + np.array([0.0, 0.0, up]) + inset * (face.mean(0) - co[loop])
         t = time.perf_counter()
         values[loop], errors[loop] = tracer.radiance(x, normals[loop], paths)
