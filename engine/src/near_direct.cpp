@@ -109,7 +109,9 @@ std::array<dvec3, 2> Solver::Impl::light_at(const std::vector<Source>& sources, 
   int slot = int(mesh.points.size());
   std::array<dvec3, 2> h{dvec3(0.0), dvec3(0.0)};
   OcclusionBatch batch(*vis, &h[0], &h[1], slot);
-  for (const Source& s : sources) s.gather(slot, {y, normal}, batch);
+  ReceiverPoint point;  // of no object: no shot skips it
+  point.position = y, point.normal = normal;
+  for (const Source& s : sources) s.gather(slot, point, batch);
   batch.flush();
   return h;
 }
