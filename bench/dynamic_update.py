@@ -24,6 +24,11 @@ The dB cache: the frames are played forward, then back (each move the reverse of
 all rays it traced, "changed" the rays the move changed (each needs a trace of the scene without
 the box, unless the cache answers: "hits"), "cache MB" what the cache holds after the last frame.
 
+Shooting on (same updates): an update's signed gathers leave the light the change made unshot,
+"left" times the threshold; it is shot back under the threshold in "shots" shots taking "shoot s".
+"bound" = full / shoot s: no update that shoots to the same threshold gets past it, whatever the
+gathers before cost.
+
 Playback: the frame range played as the UI plays it (live_update.playing() forced on; every frame,
 1/fps apart, later when a frame's own work ran over): updates in a worker thread with a frame's time
 of shooting, colours written on the first frame after each ends. "main ms" is a frame_set's wall
@@ -248,7 +253,10 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     def played():  # the updates since the last call
         d = dict(cpu=med([u["cpu"] for u in updated]), rays=med([u["rays"] - u["rays_before"] for u in updated]),
                  changed=med([u["db_hits"] + u["db_misses"] for u in updated]),
-                 hits=med([u["db_hits"] for u in updated]))
+                 hits=med([u["db_hits"] for u in updated]),
+                 left=med([u["shoot_residual"] for u in updated]), shoot=med([u["shoot_seconds"] for u in updated]),
+                 shots=med([u["shots"] - u["shots_before"] for u in updated]),
+                 seconds=med([u["seconds"] for u in updated]))
         del updated[:]
         return d
 
@@ -281,7 +289,9 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         t = time.perf_counter()
         scene.frame_set(f)
         baked.append(time.perf_counter() - t)
+    threshold = pkg.bake.engine_settings(scene.radiosity).threshold
     return dict(scene=name, vertices=verts, points=first["points"], frames=len(todo), full=med(full),
+                threshold=threshold,
                 update=med(upd), incremental=med(inc), frame=med(frame_wall), write=med(writes),
                 touched=med(touched), first=first["seconds_solve"], baked=med(baked), db=db, db_mb=db_mb,
                 db_cap=scene.radiosity.db_cache_mb, playback=playback, fps=scene.render.fps / scene.render.fps_base)
@@ -312,6 +322,13 @@ def main():
     table(f"{'scene':14} {'way':8} {'cpu s':>7} {'rays':>10} {'changed':>9} {'hits':>9} {'hit %':>6} {'cache MB':>8}",
           [f"{r['scene']:14} {way:8} {d['cpu']:7.3f} {d['rays']:10.0f} {d['changed']:9.0f} {d['hits']:9.0f} "
            f"{100 * d['hits'] / max(1, d['changed']):6.1f} {r['db_mb']:8.2f}" for r in rows for way, d in r["db"].items()])
+    print("Shooting on: what an update's gathers left unshot (in thresholds), the shots and seconds that took "
+          "it back under the threshold, their share of the update, and full / those seconds: the most full / update "
+          "could be were the rest of the update free")
+    table(f"{'scene':14} {'way':8} {'left':>6} {'shots':>6} {'shoot s':>8} {'share':>6} {'bound':>6}",
+          [f"{r['scene']:14} {way:8} {d['left'] / r['threshold']:6.1f} {d['shots']:6.0f} {d['shoot']:8.3f} "
+           f"{100 * d['shoot'] / max(1e-9, d['seconds']):5.0f}% {r['full'] / max(1e-9, d['shoot']):6.1f}"
+           for r in rows for way, d in r["db"].items()])
     if PLAYBACKS:
         print(f"playback ({PLAYBACKS} runs of the frame range, medians)")
         table(f"{'scene':14} {'fps':>5} {'of':>4} {'main ms':>8} {'max ms':>7} {'updates':>7} {'frames/upd':>10} "

@@ -72,6 +72,8 @@ py::dict stats_dict(const SolveStats& s) {
   d["cancelled"] = s.cancelled;
   d["warnings"] = s.warnings;
   d["touched_points"] = s.touched_points;
+  d["shoot_residual"] = s.shoot_residual;
+  d["shoot_seconds"] = s.shoot_seconds;
   d["db_hits"] = s.db_hits;
   d["db_misses"] = s.db_misses;
   d["db_entries"] = s.db_entries;

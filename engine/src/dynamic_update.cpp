@@ -105,6 +105,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     return stats;
   };
 
+  stats.shoot_residual = stats.shoot_seconds = 0.0;
   if (!injected) {  // nothing gathered yet: the first solve will see the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
     scene = std::move(next);
@@ -133,10 +134,17 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     touched.assign(mesh.points.size(), 1);
   }
   stats.touched_points = std::count(touched.begin(), touched.end(), 1);
-  if (!injected)
+  auto shooting = std::chrono::steady_clock::now();
+  if (!injected) {
     solve(progress);
-  else
+    stats.shoot_residual = 1.0;
+  } else {
+    double unshot = 0.0;
+    for (double p : shooter_power()) unshot += p;
+    stats.shoot_residual = reference_power > 0 ? unshot / reference_power : 0.0;
     propagate(progress, Sampling::full);
+  }
+  stats.shoot_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - shooting).count();
   return done();
 }
 

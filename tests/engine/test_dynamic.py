@@ -398,6 +398,20 @@ def test_moving_a_small_object_costs_a_small_part_of_a_solve():
     assert stats["rays"] - solve_rays < 0.1 * solve_rays
 
 
+def test_an_update_reports_the_light_it_left_to_shoot():
+    scene, ids, cube = changing_room(ROOM_STATE)
+    solver = engine.Solver(scene, settings("draft"))
+    solved = dict(solver.solve())
+    still = solver.update()  # nothing pending: nothing to shoot but what the solve left
+    assert still["shoot_residual"] == solved["residual"] and still["shots"] == solved["shots"]
+    solver.set_transform(cube, translation(np.add(ROOM_STATE["cube"], (0.3, 0, 0))))
+    moved = solver.update()
+    # The move leaves light above the threshold, which the update shoots down to it.
+    assert moved["shoot_residual"] > solved["residual"] and moved["shoot_residual"] > 0.01
+    assert moved["shots"] > solved["shots"] and moved["residual"] <= 0.01
+    assert 0 < moved["shoot_seconds"] <= moved["seconds"]
+
+
 def test_bad_changes_are_refused_and_leave_the_solution():
     scene, ids, cube = changing_room(ROOM_STATE)
     solver = engine.Solver(scene, settings("draft"))

@@ -20,6 +20,10 @@ struct SolveStats {
   int patches = 0, points = 0, shooters = 0;
   double relaxation = 1.0;   // the over-relaxation the last shots took (Settings::relaxation 0: chosen)
   long long touched_points = 0;  // last update(): receiving points whose light was recomputed
+  // Last update(): the residual its signed gathers left for shooting on, and the seconds that
+  // shooting took. No update of that scene can take less than it: where the change itself is
+  // several thresholds of light, it bounds full / update (bench/dynamic_update.py).
+  double shoot_residual = 0.0, shoot_seconds = 0.0;
   // Last update(): rays a move changed whose whole-scene trace the dB cache spared (hits) or that
   // were traced (misses); what it holds after it (Settings::db_cache_mb).
   long long db_hits = 0, db_misses = 0;
