@@ -2,7 +2,9 @@
 
     blender -b --factory-startup --python bench/dynamic_update.py -- [preset] [frames] [full_repeats] [scenes] [db_cache_mb] [playbacks]
 
-preset: draft (default) | default | high; frames: frames played per scene (default 8);
+preset: draft (default) | default | high; frames: frames played per scene, spread evenly over its
+range (0, the default: every frame, so that each update is one frame's change, as the issue asks;
+6 steps 4 frames at a time, as live playback's updates at 10k span 4-6 frames);
 full_repeats: full re-solves timed per scene (default 2); scenes: comma-separated names (all);
 db_cache_mb: the dB cache's cap (the add-on's default; 0 = no cache); playbacks: runs of the
 playback below (default 3; 0 skips it). Scenes:
@@ -58,7 +60,7 @@ from reference import relative_rms  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 PRESET = (args[0] if args else "draft").upper()
-FRAMES = int(args[1]) if len(args) > 1 else 8
+FRAMES = int(args[1]) if len(args) > 1 else 0
 FULL_REPEATS = int(args[2]) if len(args) > 2 else 2
 SCENES = args[3].split(",") if len(args) > 3 and args[3] else ["animated_room", "room_20k", "room_10k"]
 DB_CACHE_MB = float(args[4]) if len(args) > 4 and args[4] else None
@@ -236,7 +238,8 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     first = live.last_sync[scene.name]
     assert first["mode"] == "full", first
     span = scene.frame_end - scene.frame_start
-    todo = sorted({scene.frame_start + max(1, round(span * (i + 1) / frames)) for i in range(frames)})
+    steps = frames if 0 < frames < span else span
+    todo = sorted({scene.frame_start + max(1, round(span * (i + 1) / steps)) for i in range(steps)})
     inc, upd, frame_wall, touched, writes = [], [], [], [], []
     del updated[:]
     for f in todo:
@@ -306,7 +309,7 @@ def table(head, lines):
 
 
 def main():
-    print(f"Radiosity dynamic update bench: preset {PRESET.lower()}, {FRAMES} frames a scene, "
+    print(f"Radiosity dynamic update bench: preset {PRESET.lower()}, {f'{FRAMES} frames' if FRAMES else 'every frame'} of a scene, "
           f"{FULL_REPEATS} full re-solves a scene; medians; 2 cores (shared)")
     makers = {"animated_room": animated_room, "room_20k": lambda: room_scene(20000),
               "room_10k": lambda: room_scene(10000), "room_10k_tex": lambda: room_scene(10000, 4096),
