@@ -31,9 +31,9 @@ struct Settings {
   // With it, the light those surroundings reflect is evaluated where it lands as a whole, the
   // reflected light too (each piece gathers every shooter's light; near_direct.cpp): interpolated,
   // a floor's light under-read the foot of a box on it by 10%, a room's concave corners by 1-3%.
-  // It costs about 30 ms a reported point near patches whose light varies (a read of a room with a
-  // rug: 15-17 s against 0.8 s at draft, 53 s against 5 s after a 52 s solve at high), so `high`
-  // and `reference` have it. An update works all of it out anew.
+  // It costs about 30 ms a reported point near patches whose light varies at draft (a read of a
+  // room with a rug: 15-17 s against 0.8 s), more at the finer sampling of `high` (110 s against
+  // 5 s after a 45 s solve), so only `high` and `reference` have it. An update works all of it out anew.
   bool exact_near_reflected = false;
   long max_shots = 2000000;  // a guard: rho near 1 must end, the residual says how far it got
   // A guard: a scene that would refine to more patches is refused with a message. A solve holds
