@@ -21,8 +21,8 @@ struct SolveStats {
   double relaxation = 1.0;   // the over-relaxation the last shots took (Settings::relaxation 0: chosen)
   long long touched_points = 0;  // last update(): receiving points whose light was recomputed
   // Last update(): the residual its signed gathers left for shooting on, and the seconds that
-  // shooting took. No update of that scene can take less than it: where the change itself is
-  // several thresholds of light, it bounds full / update (bench/dynamic_update.py).
+  // shooting took. However cheap the gathers, an update that shoots that light back to the same
+  // threshold with the same shots takes that long: it bounds full / update (bench/dynamic_update.py).
   double shoot_residual = 0.0, shoot_seconds = 0.0;
   // Last update(): rays a move changed whose whole-scene trace the dB cache spared (hits) or that
   // were traced (misses); what it holds after it (Settings::db_cache_mb).
