@@ -139,9 +139,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     solve(progress);
     stats.shoot_residual = 1.0;
   } else {
-    double unshot = 0.0;
-    for (double p : shooter_power()) unshot += p;
-    stats.shoot_residual = reference_power > 0 ? unshot / reference_power : 0.0;
+    stats.shoot_residual = reference_power > 0 ? total_unshot_power() / reference_power : 0.0;
     propagate(progress, Sampling::full);
   }
   stats.shoot_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - shooting).count();
@@ -209,8 +207,7 @@ void Solver::Impl::add_direct_power(double change) {
 void Solver::Impl::apply_direct_delta() {
   add_direct_power(landed_power());
   apply_delta(Light::direct);
-  if (reference_power == 0)  // the first light: as a solve starts
-    for (double p : shooter_power()) reference_power += p;
+  if (reference_power == 0) reference_power = total_unshot_power();  // the first light: as a solve starts
 }
 
 void Solver::Impl::gather_direct_change(const std::vector<Source>& sources) {

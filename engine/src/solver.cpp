@@ -214,6 +214,12 @@ std::vector<double> Solver::Impl::shooter_power() const {
   return power;
 }
 
+double Solver::Impl::total_unshot_power() const {
+  double total = 0.0;
+  for (double p : shooter_power()) total += p;
+  return total;
+}
+
 // A shot's far-field sampling errors are a part of what it sends, so a shot carrying little light
 // needs few distant samples: their count falls with the square root of its power (which spends a
 // given cost where it cuts the summed error most), full for a shot of kFullSamplesAbove times the
@@ -351,7 +357,7 @@ const SolveStats& Solver::Impl::solve(const ProgressCallback& progress) {
       stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       return stats;
     }
-    for (double p : shooter_power()) reference_power += p;
+    reference_power = total_unshot_power();
     if (reference_power == 0 && !mesh.patches.empty())
       stats.warnings.push_back("no light reaches any surface: the scene is black");
   }

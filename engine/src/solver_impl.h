@@ -123,6 +123,8 @@ struct Solver::Impl {
 
   bool inject();
   std::vector<double> shooter_power() const;
+  // Their sum, in shooter order as propagate() sums it: the residual's numerator, to the last bit.
+  double total_unshot_power() const;
   // How reflected shots sample distant receivers: fewer samples for less light (a solve), or
   // always samples_indirect (an update).
   enum class Sampling { by_power, full };
