@@ -28,8 +28,8 @@ the box, unless the cache answers: "hits"), "cache MB" what the cache holds afte
 
 Shooting on (same updates): an update's signed gathers leave the light the change made unshot,
 "left" times the threshold; it is shot back under the threshold in "shots" shots taking "shoot s".
-"bound" = full / shoot s: no update that shoots to the same threshold gets past it, whatever the
-gathers before cost.
+"bound" = full / shoot s: no update that shoots that light back to the same threshold with the
+same shots gets past it, whatever the gathers before cost.
 
 Playback: the frame range played as the UI plays it (live_update.playing() forced on; every frame,
 1/fps apart, later when a frame's own work ran over): updates in a worker thread with a frame's time
