@@ -21,10 +21,15 @@ def path_of(scene, frame=None):
     return os.path.join(HERE, scene + (f"_f{frame:03d}" if frame is not None else "") + ".npz")
 
 
+def read_npz(path):
+    """{key: array} of one .npz file, read whole (the file closed again)."""
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
+
+
 def load(scene, frame=None):
     """{key: array} of one reference file."""
-    with np.load(path_of(scene, frame)) as z:
-        return {k: z[k] for k in z.files}
+    return read_npz(path_of(scene, frame))
 
 
 def traced_path_of(scene, frame=None):
@@ -34,10 +39,7 @@ def traced_path_of(scene, frame=None):
 def load_traced(scene, frame=None):
     """{key: array} of the scene's traced corners (trace_corner.py ... all), or None."""
     path = traced_path_of(scene, frame)
-    if not os.path.exists(path):
-        return None
-    with np.load(path) as z:
-        return {k: z[k] for k in z.files}
+    return read_npz(path) if os.path.exists(path) else None
 
 
 def objects(ref):
