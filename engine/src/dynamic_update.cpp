@@ -96,7 +96,15 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   if (changes.world) next.world = *changes.world;
   next.validate();
   std::map<int, PlacedObject> placed;
-  for (const auto& [o, m] : changes.meshes) placed[o] = refine_object(mesh, o, m);
+  for (const auto& [o, m] : changes.meshes) {
+    const MeshDesc& was = scene.meshes[o];
+    if (mesh.objects[o].coincident &&
+        (m.transform != was.transform || m.positions != was.positions || m.visible != was.visible))
+      throw std::invalid_argument("object '" + m.name +
+                                  "': it has faces stacked on others' (or others on its), seen once; moved, it "
+                                  "must be added anew");
+    placed[o] = refine_object(mesh, o, m);
+  }
   auto done = [&]() -> const SolveStats& {
     DbCache::Counts db = db_cache.take_counts();
     stats.db_hits = db.hits, stats.db_misses = db.misses;

@@ -54,6 +54,9 @@ struct ObjectPatches {
   Sphere enclosure;
   bool mirrored = false;  // transform flips handedness
   std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place
+  // Some of its patches lie exactly on others, or others on them (coincident_patches.h): its corners
+  // read another's light, so it cannot change without a new patch mesh.
+  bool coincident = false;
 };
 
 struct PatchMesh {

@@ -2,6 +2,7 @@
 
 #include "solver_impl.h"
 
+#include "coincident_patches.h"
 #include "dispatch.h"
 
 #include <algorithm>
@@ -53,6 +54,7 @@ Solver::Impl::Impl(SceneDesc s, const Settings& st)
     : scene(std::move(s)), settings(validated(st)), db_cache(settings.db_cache_mb) {
   scene.validate();
   mesh = build_patch_mesh(scene, settings);
+  std::vector<std::string> coincident = merge_coincident_patches(mesh, scene.meshes);
   tree = ClusterTree::build(mesh);
   std::vector<bool> dynamic, visible;
   for (const MeshDesc& m : scene.meshes) dynamic.push_back(m.dynamic), visible.push_back(m.visible);
@@ -62,6 +64,7 @@ Solver::Impl::Impl(SceneDesc s, const Settings& st)
   if (mesh.degenerate_patches > 0)
     stats.warnings.push_back(std::to_string(mesh.degenerate_patches) +
                              " degenerate (zero-area) patches were left out");
+  stats.warnings.insert(stats.warnings.end(), coincident.begin(), coincident.end());
 }
 
 void Solver::Impl::fit_to_mesh(int first_object) {
