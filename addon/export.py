@@ -805,7 +805,7 @@ def lamp_args(l):
 def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
     """Build an engine Scene from a SceneExport. `engine` is the radiosity_engine module (passed in,
     so this file imports without it). `dynamic`: None = animated objects, or a set of mesh names.
-    `after`: a SceneExport that `sx` extends (bake.align_export): only the materials, meshes and
+    `after`: a SceneExport that `sx` extends (scene_diff.align_export): only the materials, meshes and
     lamps past after's, as Solver.add takes them (material indices count after's materials).
     Returns (scene, {mesh name: engine object id})."""
     first = (len(after.materials), len(after.meshes), len(after.lights)) if after else (0, 0, 0)

@@ -7,15 +7,15 @@
 - Live update (scene.radiosity.live_update): one engine Solver per scene stays in memory
   (`live_jobs`, started by a bake or by the first change). On a frame change (frame_change_post) or
   an edit (depsgraph_update_post) the evaluated scene is exported and compared with what the Solver
-  last got (bake.diff_exports: transforms, deformed positions, objects hidden, shown or deleted,
+  last got (scene_diff.diff_exports: transforms, deformed positions, objects hidden, shown or deleted,
   materials, lamps, world, and with Solver.add new objects, lamps and materials and objects whose
   topology changed); only the differences are sent, Solver.update() shoots them, and the colours
   are written (not to hidden objects: they keep theirs). New quality settings, an object added
-  beyond the scene's size, or deleted and replaced objects outweighing the scene (bake.outgrown)
+  beyond the scene's size, or deleted and replaced objects outweighing the scene (scene_diff.outgrown)
   need a new Solver and a full solve (printed).
 - While the animation plays (play()), the frame handler never waits for the engine: the export and
   diff run on the main thread, Solver.update() in a worker thread with one frame's time of shooting
-  (bake.BakeJob's budget); what it leaves above the threshold is shot by the next update (temporal
+  (BakeJob's budget); what it leaves above the threshold is shot by the next update (temporal
   coherence). Frames that pass while it runs are not solved apart: the next update takes the scene
   as it is then, and the first frame after it ends writes its colours (the near direct light
   interpolated: Exact Contact Light is read on the settle). Waiting instead would not keep up
@@ -43,8 +43,11 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import bake, writeback
+from . import writeback
 from . import export as exporter
+from .errors import BakeError
+from .job import BakeJob
+from .scene_diff import REBUILD_NOTE
 
 # {scene name: {frame: {object name: (loops, 4) float32 rgba}}}: the last animation bake
 frame_cache = {}
@@ -254,8 +257,8 @@ def _begin(scene, depsgraph, frame_change=False):
     info = {"frame": scene.frame_current, "mode": "skipped", "reason": None, "start": t0}
     try:
         images = base.images if frame_change and base is not None else None
-        job = bake.BakeJob(scene, depsgraph, scene.radiosity, base=base, images=images)
-    except bake.BakeError as e:
+        job = BakeJob(scene, depsgraph, scene.radiosity, base=base, images=images)
+    except BakeError as e:
         info["reason"] = str(e)
         return None, base, info
     info["seconds_export"] = time.perf_counter() - t0
@@ -290,7 +293,7 @@ def _end(scene, job, base, info):
         print("Radiosity: live update failed:", info["reason"])
         return info
     if job.rebuild_reason and base is not None:
-        print(f"Radiosity: live update: {job.rebuild_reason}; {bake.REBUILD_NOTE}: new solver, "
+        print(f"Radiosity: live update: {job.rebuild_reason}; {REBUILD_NOTE}: new solver, "
               f"full solve ({job.seconds:.2f} s)")
     if not job.succeeded:
         info.update(mode="error", reason="the solve did not finish")

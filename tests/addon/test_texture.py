@@ -100,9 +100,9 @@ def test_a_textured_bake_reports_the_texture_and_a_texture_change_re_adds_the_ob
     image = bpy.data.images["Texels"]
     image.pixels.foreach_set(np.full(4 * 4 * 4, 0.5, np.float32))
     after = addon.export.export_scene()
-    state = addon.bake.align_export(before, after)
+    state = addon.scene_diff.align_export(before, after)
     retired = state.meshes[[m.name for m in before.meshes].index(ob.name)]
-    assert not retired.visible and addon.bake.RETIRED in retired.name   # re-added with the new colours
+    assert not retired.visible and addon.scene_diff.RETIRED in retired.name   # re-added with the new colours
     assert state.meshes[-1].name == ob.name and not np.array_equal(
         state.meshes[-1].corner_reflectance, before.mesh(ob.name).corner_reflectance)
 
@@ -183,7 +183,7 @@ def test_colour_attribute_colours_reach_the_corners_as_cycles_bakes_them(addon, 
         me.color_attributes.render_color_index = me.color_attributes.find("Paint")
     tree.links.new(source.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
     sx = corners_as_cycles_bakes_them(addon, ob, f"{kind} on {domain}, {node}")
-    assert "colour attributes" in addon.bake.effects_of(sx)
+    assert "colour attributes" in addon.effects.describe(sx)
 
 
 def test_a_colour_attribute_missing_or_the_bakes_own_output_is_reported(addon):
