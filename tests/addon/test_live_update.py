@@ -14,12 +14,9 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import ROOT, SAMPLES, load_package
+from conftest import ROOT, SAMPLES, load_engine, load_package
 
-ENGINE_DIR = os.path.join(ROOT, "build", "engine")
-if not os.path.isdir(ENGINE_DIR) or not any(f.startswith("radiosity_engine") for f in os.listdir(ENGINE_DIR)):
-    pytest.skip("engine module not built", allow_module_level=True)
-
+load_engine()   # when collected: a missing or broken engine fails the run (conftest.load_engine)
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
 sys.path.insert(0, SAMPLES)
 from reference import relative_rms  # noqa: E402

@@ -24,11 +24,10 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, load_engine
 
+engine = load_engine()
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
-sys.path.insert(0, os.path.join(ROOT, "build", "engine"))
-engine = pytest.importorskip("radiosity_engine")
 import cycles_settings  # noqa: E402
 import reference  # noqa: E402
 

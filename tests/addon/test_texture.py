@@ -9,11 +9,10 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, load_engine
 
+load_engine()   # when collected: a missing or broken engine fails the run (conftest.load_engine)
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
-sys.path.insert(0, os.path.join(ROOT, "build", "engine"))
-pytest.importorskip("radiosity_engine")
 import reference  # noqa: E402
 from test_shading import cycles_corners, diffuse, direct_light, direct_light_grid, point_lamp  # noqa: E402
 
