@@ -339,8 +339,8 @@ def _last_subsurf(ob):
 
 
 def face_materials(me):
-    """Mesh `me`'s faces' material indices (int32), read as the attribute they are: through the faces
-    it took 1.4 ms for 20k of them against 0.09. No attribute: every face has the first."""
+    """Mesh `me`'s faces' material indices (int32), read as the attribute they are, over ten times
+    faster than through the faces. No attribute: every face has the first."""
     mi = np.zeros(len(me.polygons), np.int32)
     attribute = me.attributes.get("material_index")
     if attribute is not None and attribute.domain == 'FACE':
@@ -509,8 +509,8 @@ def _original_loops(orig_me, co, sizes, fv):
     """(K,) int32: the original mesh's loop at each exported corner, -1 at copies modifiers made
     (Mirror, Array, Solidify keep the original faces where they were, bit for bit); None unless
     every original loop is found (modifiers that move faces, or deform the mesh). Corners are
-    looked up by a hash of their keys, then compared whole: np.unique over the rows took 0.5 s
-    for a mirrored 200k-loop grid."""
+    looked up by a hash of their keys, then compared whole: np.unique over the rows is far slower
+    on large meshes."""
     oco, osizes, ofv, _, oloops = mesh_arrays(orig_me)
     ko = _corner_keys(oco, osizes, ofv)
     ke = _corner_keys(co, sizes, fv)

@@ -208,8 +208,8 @@ class _Bake:
         def run():
             try:
                 job.solve()
-                # Read here too: with the exact contact light a 10k room's read took 1.5-6.6 s, which
-                # on the main thread froze Blender.
+                # Read here too: with the exact contact light a read can take seconds, which on
+                # the main thread would freeze Blender.
                 if job.succeeded:
                     self._read = job.colours()
             except Exception as e:   # noqa: BLE001 -- the solve's is in job.error; both reported by modal()
