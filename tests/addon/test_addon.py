@@ -356,9 +356,9 @@ def test_a_diverging_solve_is_an_error_and_keeps_the_colours(addon):
 
 def test_cubes_standing_in_each_other_on_a_floor_bake(addon):
     """400 Blender cubes (0.3 m) dropped at random on a 40 m plane under the sun: some stand in each
-    other, their bottoms in the floor's plane and their tops in each other's. The coincident faces
-    were seen two or three times, and every bake failed as diverged (engine: visibility.h,
-    Coincident); now it converges, and no face is much brighter than a sunlit one."""
+    other, their bottoms in the floor's plane and their tops in each other's. Each coincident face
+    is seen once (engine: visibility.h, Coincident): the bake converges, and no face is much brighter
+    than a sunlit one."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     me = bpy.data.meshes.new("Plane")

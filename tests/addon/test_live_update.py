@@ -1,4 +1,4 @@
-"""Live update and incremental animation bakes (issue 4), in Blender.
+"""Live update and incremental animation bakes, in Blender.
 
 Every comparison is against a fresh full bake of the same state, with reference.relative_rms (1%).
 Solves use the draft preset with coarser patches (patch_size_relative 1/8, 1/4 for the animated room)
@@ -230,7 +230,7 @@ def test_handlers_persistent_and_unregister(addon):
 
 # ----------------------------------------------------------------------------- playback
 @pytest.mark.parametrize("preset,frames", [('DRAFT', range(1, 25)),          # every frame
-                                           ('DEFAULT', (1, 8, 16, 24))])     # the issue's preset
+                                           ('DEFAULT', (1, 8, 16, 24))])     # the preset users bake at
 def test_playback_matches_fresh_bake(addon, preset, frames):
     live = addon.live_update
     scene = open_blend("animated_room", preset=preset)
@@ -657,8 +657,7 @@ def test_bake_animation_is_incremental_and_renders_each_frame(addon, tmp_path):
 def test_an_edit_of_a_written_mesh_on_a_baked_frame_drops_the_frames(addon):
     """On a baked frame our write of its colours comes back as updates of the meshes written. Alone,
     that keeps the frames; a script's edit of one of those meshes in the same update is an edit all
-    the same: the frames are out of date and the edit is solved (it was taken for our echo, and the
-    frame's colours stayed as baked)."""
+    the same: the frames are out of date and the edit is solved, not taken for our echo."""
     live = addon.live_update
     scene = open_blend("animated_room")
     scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23

@@ -117,8 +117,8 @@ def test_white_is_taken_just_below_one_and_said_so(addon):
 
 
 def test_frames_reuse_what_was_sampled_and_an_edit_reads_the_image_again(addon, monkeypatch):
-    """Live update on frame changes reuses what earlier frames sampled from an image (a 4k image took
-    40-60 ms of every frame's export); an edit reads it anew, so new pixels reach the colours."""
+    """Live update on frame changes reuses what earlier frames sampled from an image (reading a 4k image
+    costs every frame's export tens of milliseconds); an edit reads it anew, so new pixels reach the colours."""
     live = addon.live_update
     ob = textured_grid("Linear", "sRGB", 1.0)
     scene = bpy.context.scene
