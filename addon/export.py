@@ -125,6 +125,27 @@ class SceneExport:
         raise KeyError(name)
 
 
+@dataclass
+class _Gathered:
+    """What an export gathers over its objects: each material once, the images it read, the warnings."""
+    registry: dict                # {original material name, None for the default: index into materials}
+    materials: list               # MaterialExport, in scene-wide index order
+    images: object                # texture.Images of this export
+    warnings: list
+
+
+@dataclass
+class _Corners:
+    """The exported corners of one mesh, where _corner_values reads colours."""
+    me: object                    # the bpy Mesh exported
+    loops: np.ndarray             # (K,) its loop at each exported corner, or None: the identity
+    sizes: np.ndarray             # (F,) face sizes
+    face_materials: np.ndarray    # (F,) scene-wide material index of each face
+    label: str                    # the object's name in warnings
+    uvs: dict = field(default_factory=dict)   # {UV map name: the corners' UVs}: read once for reflectance
+                                              # and emission (several textured materials may share one)
+
+
 # ----------------------------------------------------------------------------- materials
 def _rgb(v):
     return tuple(float(x) for x in tuple(v)[:3])
@@ -318,8 +339,8 @@ def _last_subsurf(ob):
 
 
 def face_materials(me):
-    """Mesh `me`'s faces' material indices (int32), read as the attribute they are: through the faces
-    it took 1.4 ms for 20k of them against 0.09. No attribute: every face has the first."""
+    """Mesh `me`'s faces' material indices (int32), read as the attribute they are, over ten times
+    faster than through the faces. No attribute: every face has the first."""
     mi = np.zeros(len(me.polygons), np.int32)
     attribute = me.attributes.get("material_index")
     if attribute is not None and attribute.domain == 'FACE':
@@ -416,12 +437,13 @@ def _is_animated(ob):
     return False
 
 
-def _corner_values(me, loops, sizes, face_materials, materials, images, label, warnings, by_layer,
-                   emission=False):
+def _corner_values(corners, gathered, emission=False):
     """(K,3) reflectance (emission) per exported corner, where a face's material's colour (emission
     colour) varies over the mesh: a texture sampled at the corners' UVs, a colour attribute read
-    there, nodes of those; None when none does. `by_layer`: the corners' UVs per map, read once for
-    both (several textured materials may share one)."""
+    there, nodes of those; None when none does."""
+    me, loops, sizes, face_materials, label = (corners.me, corners.loops, corners.sizes, corners.face_materials,
+                                               corners.label)
+    materials, images, warnings, by_layer = gathered.materials, gathered.images, gathered.warnings, corners.uvs
     source_of = (lambda m: m.emission_texture) if emission else (lambda m: m.texture)
     textured = {int(i) for i in np.unique(face_materials) if source_of(materials[i]) is not None}
     if not textured:
@@ -487,8 +509,8 @@ def _original_loops(orig_me, co, sizes, fv):
     """(K,) int32: the original mesh's loop at each exported corner, -1 at copies modifiers made
     (Mirror, Array, Solidify keep the original faces where they were, bit for bit); None unless
     every original loop is found (modifiers that move faces, or deform the mesh). Corners are
-    looked up by a hash of their keys, then compared whole: np.unique over the rows took 0.5 s
-    for a mirrored 200k-loop grid."""
+    looked up by a hash of their keys, then compared whole: np.unique over the rows is far slower
+    on large meshes."""
     oco, osizes, ofv, _, oloops = mesh_arrays(orig_me)
     ko = _corner_keys(oco, osizes, ofv)
     ke = _corner_keys(co, sizes, fv)
@@ -518,14 +540,12 @@ def _original_loops(orig_me, co, sizes, fv):
     return np.where(found, original, -1).astype(np.int32)
 
 
-def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, rendered=None, warnings=None,
-                images=None):
-    """MeshExport of one evaluated object. `rendered`: its mesh as renders evaluate it, where that is
-    not the viewport's (_render_meshes); what the export cannot reproduce is appended to `warnings`.
-    `images`: texture.Images of this export."""
-    warnings = [] if warnings is None else warnings
-    images = colour_texture.Images() if images is None else images
-    lut = export_materials_of(ob_eval, registry, materials, images)
+def export_mesh(ob_eval, matrix, gathered, name=None, rendered=None):
+    """MeshExport of one evaluated object; its materials and what the export cannot reproduce go to
+    `gathered` (_Gathered). `rendered`: its mesh as renders evaluate it, where that is not the
+    viewport's (_render_meshes)."""
+    warnings = gathered.warnings
+    lut = export_materials_of(ob_eval, gathered.registry, gathered.materials, gathered.images)
     orig = ob_eval.original
     sub = _last_subsurf(orig) if orig.type == 'MESH' else None   # a curve's is Blender's to apply
     refine, level = "bilinear", 0
@@ -551,9 +571,9 @@ def export_mesh(ob_eval, depsgraph, matrix, registry, materials, name=None, rend
             original = _original_loops(orig.data, co, sizes, fv)
             matches = original is not None
         fm = lut[np.clip(mi, 0, len(lut) - 1)]
-        uvs = {}
-        rho = _corner_values(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings, uvs)
-        emitted = _corner_values(me, loops, sizes, fm, materials, images, name or ob_eval.name, warnings, uvs, True)
+        corners = _Corners(me, loops, sizes, fm, name or ob_eval.name)
+        rho = _corner_values(corners, gathered)
+        emitted = _corner_values(corners, gathered, emission=True)
         smooth = np.empty(len(me.polygons), bool)
         me.polygons.foreach_get("use_smooth", smooth)
         if me.use_auto_smooth and smooth.any():
@@ -729,6 +749,7 @@ def export_scene(depsgraph=None, images=None):
     scene = depsgraph.scene_eval
     registry, materials, meshes, lights, warnings = {}, [], [], [], []
     images = colour_texture.Images() if images is None else images
+    gathered = _Gathered(registry, materials, images, warnings)
     # Collect first: _render_meshes re-evaluates the depsgraph, invalidating the iterator.
     items = []          # (original object, type, matrix, name, visible, evaluated: read from the depsgraph)
     listed = set()      # the objects the iterator gave as themselves
@@ -767,8 +788,7 @@ def export_scene(depsgraph=None, images=None):
         for orig, kind, M, name, visible, evaluated in items:
             ev = orig.evaluated_get(depsgraph) if evaluated else orig
             if kind in GEOMETRY:
-                m = export_mesh(ev, depsgraph, M, registry, materials, name, rendered_meshes.get(orig.name),
-                                warnings, images)
+                m = export_mesh(ev, M, gathered, name, rendered_meshes.get(orig.name))
                 m.visible = visible
                 if len(m.face_sizes):
                     meshes.append(m)
@@ -805,7 +825,7 @@ def lamp_args(l):
 def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
     """Build an engine Scene from a SceneExport. `engine` is the radiosity_engine module (passed in,
     so this file imports without it). `dynamic`: None = animated objects, or a set of mesh names.
-    `after`: a SceneExport that `sx` extends (bake.align_export): only the materials, meshes and
+    `after`: a SceneExport that `sx` extends (scene_diff.align_export): only the materials, meshes and
     lamps past after's, as Solver.add takes them (material indices count after's materials).
     Returns (scene, {mesh name: engine object id})."""
     first = (len(after.materials), len(after.meshes), len(after.lights)) if after else (0, 0, 0)

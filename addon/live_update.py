@@ -7,27 +7,27 @@
 - Live update (scene.radiosity.live_update): one engine Solver per scene stays in memory
   (`live_jobs`, started by a bake or by the first change). On a frame change (frame_change_post) or
   an edit (depsgraph_update_post) the evaluated scene is exported and compared with what the Solver
-  last got (bake.diff_exports: transforms, deformed positions, objects hidden, shown or deleted,
+  last got (scene_diff.diff_exports: transforms, deformed positions, objects hidden, shown or deleted,
   materials, lamps, world, and with Solver.add new objects, lamps and materials and objects whose
   topology changed); only the differences are sent, Solver.update() shoots them, and the colours
   are written (not to hidden objects: they keep theirs). New quality settings, an object added
-  beyond the scene's size, or deleted and replaced objects outweighing the scene (bake.outgrown)
+  beyond the scene's size, or deleted and replaced objects outweighing the scene (scene_diff.outgrown)
   need a new Solver and a full solve (printed).
 - While the animation plays (play()), the frame handler never waits for the engine: the export and
   diff run on the main thread, Solver.update() in a worker thread with one frame's time of shooting
-  (bake.BakeJob's budget); what it leaves above the threshold is shot by the next update (temporal
+  (BakeJob's budget); what it leaves above the threshold is shot by the next update (temporal
   coherence). Frames that pass while it runs are not solved apart: the next update takes the scene
   as it is then, and the first frame after it ends writes its colours (the near direct light
   interpolated: Exact Contact Light is read on the settle). Waiting instead would not keep up
-  however small the budget: a 10k-vertex room's update spends about six frames' time (24 fps) in the
-  move's gathers, which cannot be cut short, before its first shot. When playback stops (_watch),
+  however small the budget: a room of thousands of vertices spends several frames' time in a move's
+  gathers, which cannot be cut short, before its first shot. When playback stops (_watch),
   the rest is shot to the threshold, in the worker as well: the colours are a full update's. The
   main thread only exports, diffs and writes; the worker also reads the colours (with the exact
-  contact light, seconds at 10k). Scripts' frame_set and background mode converge every frame
+  contact light, seconds in a large room). Scripts' frame_set and background mode converge every frame
   (sync()).
 - Edits in the viewport (an object dragged, a slider moved) take the same path: waiting for each
-  would freeze the UI for the whole update at every step of a drag (0.8 s in a 20k-vertex room,
-  draft). Once edits have stopped for EDIT_QUIET seconds, _watch shoots the rest to the threshold.
+  would freeze the UI for the whole update at every step of a drag (most of a second in a large
+  room). Once edits have stopped for EDIT_QUIET seconds, _watch shoots the rest to the threshold.
 
 Never while a render runs: a render job (is_job_running('RENDER' / 'OBJECT_BAKE')) or a render
 depsgraph gets no live solves. Cached frames are written only by the render pipeline's own frame
@@ -43,8 +43,11 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import bake, writeback
+from . import writeback
 from . import export as exporter
+from .errors import BakeError
+from .job import BakeJob
+from .scene_diff import REBUILD_NOTE
 
 # {scene name: {frame: {object name: (loops, 4) float32 rgba}}}: the last animation bake
 frame_cache = {}
@@ -254,8 +257,8 @@ def _begin(scene, depsgraph, frame_change=False):
     info = {"frame": scene.frame_current, "mode": "skipped", "reason": None, "start": t0}
     try:
         images = base.images if frame_change and base is not None else None
-        job = bake.BakeJob(scene, depsgraph, scene.radiosity, base=base, images=images)
-    except bake.BakeError as e:
+        job = BakeJob(scene, depsgraph, scene.radiosity, base=base, images=images)
+    except BakeError as e:
         info["reason"] = str(e)
         return None, base, info
     info["seconds_export"] = time.perf_counter() - t0
@@ -272,8 +275,8 @@ def _begin(scene, depsgraph, frame_change=False):
 
 def _solve(job, info, budget=None):
     """Any thread: no Blender data. The colours are read here too, for _end to write: with the exact
-    contact light (budget None) a 10k room's read took 1.5-6.6 s (draft, load 6), longer than its
-    update (0.5-0.9 s), and the main thread would wait for it."""
+    contact light (budget None) a read can take longer than the update itself, and the main thread
+    would wait for it."""
     try:
         job.solve(budget=budget)
         if job.succeeded:
@@ -290,7 +293,7 @@ def _end(scene, job, base, info):
         print("Radiosity: live update failed:", info["reason"])
         return info
     if job.rebuild_reason and base is not None:
-        print(f"Radiosity: live update: {job.rebuild_reason}; {bake.REBUILD_NOTE}: new solver, "
+        print(f"Radiosity: live update: {job.rebuild_reason}; {REBUILD_NOTE}: new solver, "
               f"full solve ({job.seconds:.2f} s)")
     if not job.succeeded:
         info.update(mode="error", reason="the solve did not finish")
@@ -412,8 +415,8 @@ def _served_from_cache(scene):
 
 def _user_edit(depsgraph):
     """Did this depsgraph update come from the user (not from our own colour writes)? A mesh we wrote
-    comes back as updated whatever else happened to it: its geometry tells (a script's edit of its
-    vertices on a baked frame was taken for our echo, and the frames were kept)."""
+    comes back as updated whatever else happened to it: its geometry tells, so that a script's edit of
+    its vertices on a baked frame does not pass for our echo."""
     kinds = tuple(getattr(bpy.types, n) for n in ("Material", "Light", "World", "NodeTree", "Key",
                                                   "Collection", "Armature", "Curve") if hasattr(bpy.types, n))
 

@@ -5,14 +5,17 @@ solve runs in a Python thread (the engine releases the GIL), a timer polls it, E
 Colours are written only after every frame solved; a cancel or an error leaves them untouched.
 
 bake_animation solves the first frame in full and every later frame incrementally on the same engine
-Solver (bake.BakeJob(base=previous job)): only what changed since the previous frame is re-shot.
+Solver (job.BakeJob(base=previous job)): only what changed since the previous frame is re-shot.
 The handlers (frame change, live update) live in live_update.py and stay quiet while a bake runs.
 """
 import threading
 
 import bpy
 
-from . import bake, live_update, writeback
+from . import live_update, writeback
+from .errors import BakeError
+from .job import BakeJob
+from .scene_diff import REBUILD_NOTE
 
 # Per-frame colours of the last animation bake: {scene name: {frame: {object name: (loops,4) rgba}}}.
 # Also kept in the .blend (live_update.STORE); frame_change_pre writes the current frame's colours.
@@ -37,7 +40,7 @@ def _report_all(report, messages, kind='WARNING'):
 
 def _failure(e):
     """The report of a bake that stopped on exception `e`: the scene's fault (BakeError) or ours."""
-    if isinstance(e, bake.BakeError):
+    if isinstance(e, BakeError):
         return f"Radiosity: {e}"
     return f"Radiosity: the bake failed ({type(e).__name__}: {e}); colours unchanged"
 
@@ -50,21 +53,21 @@ def _frames(scene, animation):
 
 def prepare_frame(context, frame, animation, base=None):
     """BakeJob for one frame (main thread); incremental on `base`'s Solver when given.
-    Raises bake.BakeError."""
+    Raises BakeError."""
     scene = context.scene
     if animation and scene.frame_current != frame:
         scene.frame_set(frame)
     # Frames of one bake share their images: what was sampled from them is not read again.
-    job = bake.BakeJob(scene, context.evaluated_depsgraph_get(), scene.radiosity, base=base,
+    job = BakeJob(scene, context.evaluated_depsgraph_get(), scene.radiosity, base=base,
                        images=base.images if base is not None else None)
     if base is not None and job.rebuild_reason:
-        print(f"Radiosity: frame {frame}: {job.rebuild_reason}; {bake.REBUILD_NOTE}: new solver, full solve")
+        print(f"Radiosity: frame {frame}: {job.rebuild_reason}; {REBUILD_NOTE}: new solver, full solve")
     return job
 
 
 def bake_frames(context, frames, animation, progress=None):
     """Synchronous bake. progress(fraction, residual) -> False cancels.
-    Returns (jobs, {frame: colours}) with colours None when cancelled. Raises bake.BakeError.
+    Returns (jobs, {frame: colours}) with colours None when cancelled. Raises BakeError.
     The first frame is solved in full, later frames incrementally on the same Solver."""
     jobs, results = [], {}
     scene = context.scene
@@ -155,7 +158,7 @@ class _Bake:
         with live_update.suspended():
             try:
                 jobs, results = bake_frames(context, _frames(context.scene, self.animation), self.animation)
-            except bake.BakeError as e:
+            except BakeError as e:
                 self.report({'ERROR'}, f"Radiosity: {e}")
                 return {'CANCELLED'}
             if results is None:
@@ -205,8 +208,8 @@ class _Bake:
         def run():
             try:
                 job.solve()
-                # Read here too: with the exact contact light a 10k room's read took 1.5-6.6 s, which
-                # on the main thread froze Blender.
+                # Read here too: with the exact contact light a read can take seconds, which on
+                # the main thread would freeze Blender.
                 if job.succeeded:
                     self._read = job.colours()
             except Exception as e:   # noqa: BLE001 -- the solve's is in job.error; both reported by modal()
@@ -329,18 +332,6 @@ class RADIOSITY_OT_clear(bpy.types.Operator):
         scene.radiosity.has_results = False
         self.report({'INFO'}, f"Radiosity: cleared {n} mesh(es)")
         return {'FINISHED'}
-
-
-# ----------------------------------------------------------------------------- handlers
-on_frame_change = live_update.on_frame_change
-
-
-def register_handlers():
-    live_update.register_handlers()
-
-
-def unregister_handlers():
-    live_update.unregister_handlers()
 
 
 classes = (RADIOSITY_OT_bake, RADIOSITY_OT_bake_animation, RADIOSITY_OT_clear)

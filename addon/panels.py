@@ -1,7 +1,7 @@
 """Render properties panel and 3D view sidebar panel (tab "Radiosity")."""
 import bpy
 
-from . import bake, live_update
+from . import estimate, live_update
 
 
 def _human(n):
@@ -28,7 +28,7 @@ def draw_main(layout, context):
     layout.use_property_decorate = False
     layout.prop(props, "preset")
     try:
-        points, rays, secs = bake.estimate(props, scene)
+        points, rays, secs = estimate.cost(props, scene)
         col = layout.column(align=True)
         col.label(text=f"Estimate: ~{_human(points)} vertices, ~{_human(rays)} rays", icon='INFO')
         col.label(text=f"Estimate: ~{_seconds(secs)} a frame (rough)")

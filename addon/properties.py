@@ -3,20 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-KNOBS = ("samples_direct", "samples_indirect", "patch_size_relative", "threshold", "relaxation", "exact_near_direct",
-         "exact_near_reflected")
-
-
-def preset_values(name):
-    """Knob values of a preset: the engine's Settings are their one source (its relaxation 0 is
-    the Automatic Relaxation box)."""
-    from .bake import load_engine
-    s = load_engine().Settings.preset(name.lower())
-    values = {k: getattr(s, k) for k in KNOBS if k != "relaxation"}
-    values["auto_relaxation"] = s.relaxation == 0
-    if s.relaxation:
-        values["relaxation"] = s.relaxation
-    return values
+from .settings import preset_values
 
 
 def _fill(self, _context):

@@ -10,8 +10,8 @@ Cycles 3.4 takes it (`alpha_handling`). And `Images`, what exports read from ima
 environments).
 
 Cycles reads the texture wherever it shades; the engine gets it at the mesh's face corners and
-interpolates it across each face, as the issue asks ("sampled per vertex"): detail finer than the
-mesh's faces is averaged out."""
+interpolates it across each face, as a colour sampled per vertex is: detail finer than the mesh's
+faces is averaged out."""
 from dataclasses import dataclass
 
 import numpy as np
@@ -361,8 +361,8 @@ def alpha_handling(node):
     (ImageTextureNode and BlenderImageLoader): a colour image (not Non-Color, alpha mode neither
     Channel Packed nor None) is associated with its alpha on load, the 8-bit ones by Cycles, the
     float ones already by Blender; and divided by it at the read when the node's Alpha output
-    feeds a node (Cycles drops nodes whose outputs lead nowhere). Before 2026-12-03 an 8-bit sRGB
-    PNG with transparency baked up to 20 times too bright where it was transparent."""
+    feeds a node (Cycles drops nodes whose outputs lead nowhere). Left unassociated, an 8-bit sRGB
+    image bakes many times too bright where it is transparent."""
     image = node.image
     associated = image.colorspace_settings.name != 'Non-Color' and image.alpha_mode not in ('CHANNEL_PACKED', 'NONE')
     used = any(link.to_node.type == 'OUTPUT_MATERIAL' or any(out.is_linked for out in link.to_node.outputs)
@@ -435,7 +435,7 @@ class Images:
     """What exports read from images. Pixels are kept for one export only (`end_export`): a 4k image
     is 256 MB of floats. What was sampled from them (the mean colour, the colours at a mesh's UVs)
     outlives it, for later exports whose images are known not to have changed, the frames of an
-    animation: reading a 4k image took 40-60 ms of each frame's export. A new Images for exports
+    animation: reading a 4k image again would cost each frame's export tens of milliseconds. A new Images for exports
     that may follow an edit of the pixels (Blender 3.4 gives no cheap sign of one)."""
 
     # Sources whose pixels follow the frame: sampled anew each export.
@@ -499,8 +499,8 @@ def mean_of(source, images):
 
 def mean_colour(ref, images):
     """(3,) mean linear RGB of `ref`'s image as its node reads it (zeros if it has no pixels), over
-    about 256 x 256 of its texels: it only stands in where a mesh has no UVs, and a 2k sRGB image
-    made linear whole took 0.2 s of an export."""
+    about 256 x 256 of its texels: it only stands in where a mesh has no UVs, and making a whole 2k
+    sRGB image linear costs an export 0.2 s."""
     def work():
         px = images.pixels(ref.image)
         step = max(1, max(px.shape[:2]) // 256)

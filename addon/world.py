@@ -41,7 +41,7 @@ def sky_lights(node, images):
         luminance = px @ np.array([0.2126, 0.7152, 0.0722], np.float32)
         mean = (luminance.sum(1, dtype=np.float64) * row_solid).sum() / (row_solid.sum() * w)
         bright = luminance > SUN_CONTRAST * mean
-        # Sums by blocks of texels, in float32 but for the rows' weights: an 8k image in float64 was
+        # Sums by blocks of texels, in float32 but for the rows' weights: an 8k image in float64 is
         # 0.8 GB a copy. The suns' texels come off afterwards: they are few.
         step = max(1, -(-w // SKY_MAP_WIDTH))
         rows, cols = np.arange(0, h, step), np.arange(0, w, step)

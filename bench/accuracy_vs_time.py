@@ -172,7 +172,7 @@ def run_ours(pkg, name, frame, preset, max_seconds):
     def once():
         scene = open_scene(name, frame)
         t0 = time.perf_counter()
-        job = pkg.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), preset=preset)
+        job = pkg.job.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), preset=preset)
         t1 = time.perf_counter()
         job.solve(progress=lambda f, r: time.perf_counter() - t1 < max_seconds)
         t2 = time.perf_counter()
@@ -463,7 +463,7 @@ def main():
         print("wrote", PNG)
         return
     pkg = load_package()
-    engine = pkg.bake.load_engine()
+    engine = pkg.engine.load_engine()
     print(f"engine: {engine.__file__}; cores {os.cpu_count()}; load average at start {os.getloadavg()}")
     rows, details = [], {}
     if opt["keep_cycles"]:  # and whatever of ours is not run again

@@ -70,7 +70,7 @@ pkg = load_package()
 pkg.register()
 live = pkg.live_update
 updated = []  # per Solver.update() through the add-on: its stats and process CPU time
-_update = pkg.bake.BakeJob._update
+_update = pkg.job.BakeJob._update
 
 
 def timed_update(job):
@@ -80,7 +80,7 @@ def timed_update(job):
     return st
 
 
-pkg.bake.BakeJob._update = timed_update
+pkg.job.BakeJob._update = timed_update
 
 
 def grid(origin, u, v, nu, nv):
@@ -174,7 +174,7 @@ def fresh_solve(scene, frame):
     current = scene.frame_current
     with live.suspended():
         scene.frame_set(frame)
-        job = pkg.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
+        job = pkg.job.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
         job.solve()
         scene.frame_set(current)
     colours = job.colours()
@@ -278,7 +278,7 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     for f in todo[-full_repeats:]:
         with live.suspended():
             scene.frame_set(f)
-        job = pkg.bake.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
+        job = pkg.job.BakeJob(scene, bpy.context.evaluated_depsgraph_get(), scene.radiosity)
         t = time.perf_counter()
         job.solve()
         full.append(time.perf_counter() - t)
@@ -292,7 +292,7 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         t = time.perf_counter()
         scene.frame_set(f)
         baked.append(time.perf_counter() - t)
-    threshold = pkg.bake.engine_settings(scene.radiosity).threshold
+    threshold = pkg.settings.engine_settings(scene.radiosity).threshold
     return dict(scene=name, vertices=verts, points=first["points"], frames=len(todo), full=med(full),
                 threshold=threshold,
                 update=med(upd), incremental=med(inc), frame=med(frame_wall), write=med(writes),

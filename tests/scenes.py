@@ -4,8 +4,14 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "build", "engine"))
-import radiosity_engine as engine  # noqa: E402
+ENGINE_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "build", "engine")
+sys.path.insert(0, ENGINE_DIR)
+try:
+    import radiosity_engine as engine  # noqa: E402
+except ImportError as e:
+    # Raised, not skipped: the tests that import this module fail with it, so a broken build fails the suite.
+    raise ImportError(f"the engine module radiosity_engine is missing or broken in {os.path.normpath(ENGINE_DIR)} "
+                      f"({e}): build it (cmake --build build)") from e
 
 
 class Mesh:

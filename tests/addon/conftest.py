@@ -25,6 +25,13 @@ def open_sample():
     return _open
 
 
+def load_engine():
+    """The engine module as the add-on loads it (next to the add-on, else build/engine). Test files
+    that need it call this when pytest collects them: a missing or broken engine then stops the run
+    with an error that names it, where a skip would let a broken build pass."""
+    return load_package().engine.load_engine()
+
+
 def load_package():
     """The add-on package from the source tree (addon/) as `dynamic_radiosity`; its engine falls
     back to build/engine."""

@@ -1,4 +1,4 @@
-"""Live update of the issue-4 change kinds that test_live_update.py leaves out: deformation by a
+"""Live update of the change kinds that test_live_update.py leaves out: deformation by a
 modifier (of a box, and of a flat floor bent apart at its vertices), a shape key and an armature, and lamps (colour, position, the direction of spot, sun and
 area lamps). Each one is a single edit of a baked edit_scene. The edit must reach the Solver as one
 call on the edited object, and the result must match a fresh bake of the edited state, with
@@ -24,8 +24,8 @@ def simple_deform(scene):
 
 def bent_floor(scene):
     # A shape key raising a pyramid in the floor: its flat faces bend apart at the vertices they
-    # share. Taken in place only because a deforming object's flat faces keep a point each
-    # (MeshDesc::deforms); sharing one, they were refused and the scene solved anew.
+    # share. Taken in place because a deforming object's flat faces keep a point each
+    # (MeshDesc::deforms); sharing one, they would be refused and the scene solved anew.
     floor = scene.objects["Floor"]
     floor.shape_key_add(name="Basis")
     key = floor.shape_key_add(name="Pyramid")
@@ -150,7 +150,7 @@ def test_vertices_moved_without_a_modifier_bend_a_flat_floor_in_place(addon):
 
 def test_a_floor_bent_in_the_edit_that_adds_an_object_is_solved_anew(addon):
     """The added object went to the Solver when its call was made: sent again after the refusal, it
-    would come twice. So that edit is a new Solver and a full solve, as every such edit was."""
+    would come twice. So that edit is a new Solver and a full solve."""
     live = addon.live_update
     scene = edit_scene()
     assert bpy.ops.radiosity.bake() == {'FINISHED'}

@@ -1,15 +1,12 @@
-"""Export + engine against the Cycles reference (skipped until build/engine holds radiosity_engine)."""
+"""Export + engine against the Cycles reference."""
 import os
 import sys
 
-import pytest
+from conftest import ROOT, load_engine
 
-from conftest import ROOT
-
+engine = load_engine()
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
-sys.path.insert(0, os.path.join(ROOT, "build", "engine"))
-engine = pytest.importorskip("radiosity_engine")
-compare_engine = pytest.importorskip("compare_engine")
+import compare_engine  # noqa: E402
 
 
 def test_cornell_draft_matches_cycles_units(export):

@@ -393,8 +393,8 @@ def test_objects_hidden_in_the_viewport_light_the_scene_as_cycles_renders_them(e
     assert not any(ob.visible_get() for ob in (held, plain, smooth, kept, child, lamp))
     hidden = export.export_scene()
     assert sorted(m.name for m in hidden.visible_meshes) == sorted(m.name for m in shown.meshes) and not hidden.warnings
-    engine = addon.bake.load_engine()
-    assert addon.bake.diff_exports(shown, addon.bake.align_export(shown, hidden), engine) == []
+    engine = addon.engine.load_engine()
+    assert addon.scene_diff.diff_exports(shown, addon.scene_diff.align_export(shown, hidden), engine) == []
     assert hidden.mesh("Held").positions.shape == (16, 3)              # solidified
     assert hidden.mesh("Smooth").refine == "catmull_clark" and len(hidden.mesh("Smooth").positions) == 8
     # Moved while disabled: from their stored location, and their parent's evaluated place.

@@ -1,4 +1,4 @@
-"""Live update and incremental animation bakes (issue 4), in Blender.
+"""Live update and incremental animation bakes, in Blender.
 
 Every comparison is against a fresh full bake of the same state, with reference.relative_rms (1%).
 Solves use the draft preset with coarser patches (patch_size_relative 1/8, 1/4 for the animated room)
@@ -14,12 +14,9 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import ROOT, SAMPLES, load_package
+from conftest import ROOT, SAMPLES, load_engine, load_package
 
-ENGINE_DIR = os.path.join(ROOT, "build", "engine")
-if not os.path.isdir(ENGINE_DIR) or not any(f.startswith("radiosity_engine") for f in os.listdir(ENGINE_DIR)):
-    pytest.skip("engine module not built", allow_module_level=True)
-
+load_engine()   # when collected: a missing or broken engine fails the run (conftest.load_engine)
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
 sys.path.insert(0, SAMPLES)
 from reference import relative_rms  # noqa: E402
@@ -131,24 +128,24 @@ def call_names(job):
 
 
 # ----------------------------------------------------------------------------- diff (no solve)
-def diff(bake, old, new):
+def diff(addon, old, new):
     """(calls, the scene as the Solver then holds it), as BakeJob does."""
-    state = bake.align_export(old, new)
-    return bake.diff_exports(old, state, bake.load_engine()), state
+    state = addon.scene_diff.align_export(old, new)
+    return addon.scene_diff.diff_exports(old, state, addon.engine.load_engine()), state
 
 
 def test_diff_sends_only_what_changed(addon):
     scene = edit_scene()
-    bake, export = addon.bake, addon.export
+    export = addon.export
     a = export.export_scene(bpy.context.evaluated_depsgraph_get())
     ids = {m.name: i for i, m in enumerate(a.meshes)}
-    calls, _ = diff(bake, a, a)
+    calls, _ = diff(addon, a, a)
     assert calls == []
     scene.objects["Box"].location.x = 0.5
     bpy.data.lights["Lamp"].energy = 50.0
     bpy.data.materials["Red"].node_tree.nodes["Diffuse BSDF"].inputs["Color"].default_value = (0.1, 0.8, 0.1, 1)
     scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 2.0
-    calls, b = diff(bake, a, export.export_scene(bpy.context.evaluated_depsgraph_get()))
+    calls, b = diff(addon, a, export.export_scene(bpy.context.evaluated_depsgraph_get()))
     names = sorted(c[0] for c in calls)
     assert names == ["set_material", "set_point_light", "set_transform", "set_world"], names
     tr = [c for c in calls if c[0] == "set_transform"][0]
@@ -156,10 +153,10 @@ def test_diff_sends_only_what_changed(addon):
     np.testing.assert_allclose([c for c in calls if c[0] == "set_world"][0][1][0], (0.1, 0.1, 0.1), rtol=1e-6)
     # deformation (same topology) -> positions; new object and material -> one add, after the rest
     scene.objects["Box"].data.vertices[0].co.z -= 0.1
-    calls, c = diff(bake, b, export.export_scene(bpy.context.evaluated_depsgraph_get()))
+    calls, c = diff(addon, b, export.export_scene(bpy.context.evaluated_depsgraph_get()))
     assert [x[0] for x in calls] == ["set_positions"] and calls[0][1][1].shape == (8, 3)
     ms.box("Box2", (0.2, 0.2, 0.2), (1.0, 1.0, 0.0), 0.0, ms.diffuse("Blue", (0.1, 0.1, 0.8)))
-    calls, d = diff(bake, c, export.export_scene(bpy.context.evaluated_depsgraph_get()))
+    calls, d = diff(addon, c, export.export_scene(bpy.context.evaluated_depsgraph_get()))
     assert [x[0] for x in calls] == ["add"] and calls[0][1][0].mesh_count == 1
     assert [m.name for m in d.meshes] == [m.name for m in c.meshes] + ["Box2"]
     assert [m.name for m in d.materials] == [m.name for m in c.materials] + ["Blue"]
@@ -170,7 +167,7 @@ def test_diff_hidden_deleted_and_back(addon):
     """Hiding, deleting and bringing back meshes and lamps are visibility and power changes; an object
     back with another topology rebuilds."""
     scene = edit_scene()
-    bake, export = addon.bake, addon.export
+    export = addon.export
     now = lambda: export.export_scene(bpy.context.evaluated_depsgraph_get())     # noqa: E731
     a = now()
     ids = {m.name: i for i, m in enumerate(a.meshes)}
@@ -178,19 +175,19 @@ def test_diff_hidden_deleted_and_back(addon):
     box.hide_render = True
     box.location.x = 0.5                         # moves while hidden: sent when it shows again
     scene.objects["Lamp"].hide_render = True
-    calls, b = diff(bake, a, now())
+    calls, b = diff(addon, a, now())
     assert [c[0] for c in calls] == ["set_visible", "set_point_light"], calls
     assert calls[0][1] == (ids["Box"], False)
     np.testing.assert_array_equal(calls[1][1][2], 0.0)                       # the lamp, dark
     np.testing.assert_array_equal(b.mesh("Box").transform, a.mesh("Box").transform)
     # deleted: kept in the Solver's scene, hidden, so the next diff sends nothing for it
     bpy.data.objects.remove(box)
-    calls, c = diff(bake, b, now())
+    calls, c = diff(addon, b, now())
     assert calls == [] and not c.mesh("Box").visible and [m.name for m in c.meshes] == [m.name for m in a.meshes]
     # back (the same name and topology), elsewhere, and the lamp shown
     ms.box("Box", (0.6, 0.6, 0.6), (0.9, 0.4, 0.0), 0.0, bpy.data.materials["Red"])
     scene.objects["Lamp"].hide_render = False
-    calls, d = diff(bake, c, now())
+    calls, d = diff(addon, c, now())
     assert sorted(x[0] for x in calls) == ["set_point_light", "set_transform", "set_visible"], calls
     assert ("set_visible", (ids["Box"], True)) in calls
     lamp = [x for x in calls if x[0] == "set_point_light"][0][1]
@@ -198,14 +195,14 @@ def test_diff_hidden_deleted_and_back(addon):
     assert d.mesh("Box").visible and d.mesh("Box").transform[0, 3] == pytest.approx(0.9)
     # back with another topology: the Solver keeps the old one, retired and hidden, and adds the new
     bpy.data.objects.remove(scene.objects["Box"])
-    calls, e = diff(bake, d, now())
+    calls, e = diff(addon, d, now())
     assert calls == [("set_visible", (ids["Box"], False))]
     ms.box("Box", (0.6, 0.6, 0.6), (0.0, 0.0, 0.0), 0.0, bpy.data.materials["Red"],
            sides=("+Z", "-Z", "-Y", "+Y", "-X", "+X"))
-    calls, f = diff(bake, e, now())
+    calls, f = diff(addon, e, now())
     assert [x[0] for x in calls] == ["add"]
     retired = f.meshes[ids["Box"]]
-    assert retired.name == "Box" + bake.RETIRED + str(ids["Box"]) and not retired.visible
+    assert retired.name == "Box" + addon.scene_diff.RETIRED + str(ids["Box"]) and not retired.visible
     assert f.meshes[-1].name == "Box" and f.meshes[-1].visible
 
 
@@ -233,7 +230,7 @@ def test_handlers_persistent_and_unregister(addon):
 
 # ----------------------------------------------------------------------------- playback
 @pytest.mark.parametrize("preset,frames", [('DRAFT', range(1, 25)),          # every frame
-                                           ('DEFAULT', (1, 8, 16, 24))])     # the issue's preset
+                                           ('DEFAULT', (1, 8, 16, 24))])     # the preset users bake at
 def test_playback_matches_fresh_bake(addon, preset, frames):
     live = addon.live_update
     scene = open_blend("animated_room", preset=preset)
@@ -355,8 +352,8 @@ def test_viewport_edits_run_in_a_worker_and_settle_when_they_stop(addon, monkeyp
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
     scene.radiosity.live_update = True
     on_main = []                                          # per colour read: on the main thread?
-    colours = addon.bake.BakeJob.colours
-    monkeypatch.setattr(addon.bake.BakeJob, "colours", lambda job, *args, **kwargs: (
+    colours = addon.job.BakeJob.colours
+    monkeypatch.setattr(addon.job.BakeJob, "colours", lambda job, *args, **kwargs: (
         on_main.append(threading.current_thread() is threading.main_thread()), colours(job, *args, **kwargs))[1])
     threshold = scene.radiosity.threshold
     monkeypatch.setattr(live, "frame_budget", lambda scene: 0.0)
@@ -460,7 +457,7 @@ def test_replaced_objects_outweighing_the_scene_start_a_new_solver(addon):
     """The Solver keeps a floor replaced by another topology, hidden. The first replacement is an
     update; after the second, the kept floors hold more faces than the scene: a new Solver without
     them, whose colours are a fresh bake's."""
-    live, bake = addon.live_update, addon.bake
+    live, retired = addon.live_update, addon.scene_diff.RETIRED
     scene = edit_scene()
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
     scene.radiosity.live_update = True
@@ -475,7 +472,7 @@ def test_replaced_objects_outweighing_the_scene_start_a_new_solver(addon):
         info = live.last_sync[scene.name]
         assert info["mode"] == mode, info
     assert "hold more faces than the scene" in info["reason"], info
-    assert not [m.name for m in live.live_jobs[scene.name].export.meshes if bake.RETIRED in m.name]
+    assert not [m.name for m in live.live_jobs[scene.name].export.meshes if retired in m.name]
     got = read(scene)
     check_finite(got)
     err = relative_rms(stacked(got), stacked(fresh_bake(scene)))
@@ -660,8 +657,7 @@ def test_bake_animation_is_incremental_and_renders_each_frame(addon, tmp_path):
 def test_an_edit_of_a_written_mesh_on_a_baked_frame_drops_the_frames(addon):
     """On a baked frame our write of its colours comes back as updates of the meshes written. Alone,
     that keeps the frames; a script's edit of one of those meshes in the same update is an edit all
-    the same: the frames are out of date and the edit is solved (it was taken for our echo, and the
-    frame's colours stayed as baked)."""
+    the same: the frames are out of date and the edit is solved, not taken for our echo."""
     live = addon.live_update
     scene = open_blend("animated_room")
     scene.frame_start, scene.frame_end, scene.frame_step = 1, 24, 23

@@ -4,18 +4,9 @@ where Cycles' vertex bake is exact at a few samples (a point lamp without radius
 the comparison is tight and fast: a corner's direct light follows the cosine of its shading normal
 to the lamp, and a wrong normal shows at once.
 
-Measured 2026-12-02, relative RMS over the corners against Cycles (before the engine took Blender's
-smooth flags, when plain meshes were always flat and Subdivision Surface objects always smooth):
-
-    UV sphere 16 x 8, smooth          0.063%   (37.9%)
-    UV sphere, flat                   0.087%   (the same)
-    Subdivision Surface cube, smooth  0.029%   (the same)
-    Subdivision Surface cube, flat    7.06%    (36.4%)
-
 The flat Subdivision Surface cube keeps 7%: its level-2 quads are not planar, and Cycles shades a
 flat quad by the two triangles it cuts it into, each with its own normal, where a patch has one
-(the mean). With bounces (the subsurf room with the smooth sphere added, default preset, Cycles at
-16,384 spp) the sphere's corners came out 2.2% RMS from Cycles, 12.6% before.
+(the mean). Shaded the other way (a smooth sphere as flat, a flat cube as smooth), each is 36-38% off.
 """
 import os
 import sys
@@ -24,11 +15,10 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, load_engine
 
+engine = load_engine()
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
-sys.path.insert(0, os.path.join(ROOT, "build", "engine"))
-engine = pytest.importorskip("radiosity_engine")
 import cycles_settings  # noqa: E402
 import reference  # noqa: E402
 
@@ -110,9 +100,11 @@ def cycles_corners(ob):
     return c.reshape(-1, 4)[:, :3]
 
 
-# (object, smooth) -> bound: the measured error (above) with a margin
-BOUNDS = {("sphere", True): 0.003, ("sphere", False): 0.003,
-          ("subsurf_cube", True): 0.003, ("subsurf_cube", False): 0.09}
+# (object, smooth) -> bound: the measured relative RMS over the corners against Cycles, with a margin
+BOUNDS = {("sphere", True): 0.003,           # 0.063%
+          ("sphere", False): 0.003,          # 0.087%
+          ("subsurf_cube", True): 0.003,     # 0.029%
+          ("subsurf_cube", False): 0.09}     # 7.06%
 
 
 @pytest.mark.parametrize("kind, smooth", BOUNDS, ids=[f"{k}-{'smooth' if s else 'flat'}" for k, s in BOUNDS])
@@ -126,8 +118,8 @@ def test_direct_light_follows_the_shading(export, kind, smooth):
 
 def test_curve_and_text_objects_cast_their_shadows_as_in_cycles(export):
     """Curves, text, surfaces and metaballs are surfaces to Cycles: they block and reflect light,
-    though they hold no colour attribute. Before, the export failed on text and curves (their
-    evaluated meshes came as instances of objects with no loops) and passed metaballs over."""
+    though they hold no colour attribute. The export takes text and curves as the objects they are,
+    not as the instances of objects with no loops their evaluated meshes come as, and metaballs too."""
     scene, floor = direct_light_grid(24, 4.0)
     diffuse(floor)
     bpy.ops.object.text_add(location=(-1.3, -0.7, 0.9))
@@ -177,4 +169,4 @@ def test_an_hdri_sun_lights_and_shadows_as_in_cycles(export, turn):
     seen = normal_z > -0.5
     err = reference.relative_rms(direct_light(export, box)[seen], ref[seen])
     print(f"; the box: {100 * err:.3f}%", end="")
-    assert err < 0.012   # 0.59-0.72% (Cycles' seed is fixed); the map turned the wrong way: 2.0%
+    assert err < 0.012   # 0.59-0.72% (Cycles' seed is fixed); a map turned the wrong way gives 2.0%

@@ -9,11 +9,10 @@ import bpy
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, load_engine
 
+load_engine()   # when collected: a missing or broken engine fails the run (conftest.load_engine)
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
-sys.path.insert(0, os.path.join(ROOT, "build", "engine"))
-pytest.importorskip("radiosity_engine")
 import reference  # noqa: E402
 from test_shading import cycles_corners, diffuse, direct_light, direct_light_grid, point_lamp  # noqa: E402
 
@@ -100,9 +99,9 @@ def test_a_textured_bake_reports_the_texture_and_a_texture_change_re_adds_the_ob
     image = bpy.data.images["Texels"]
     image.pixels.foreach_set(np.full(4 * 4 * 4, 0.5, np.float32))
     after = addon.export.export_scene()
-    state = addon.bake.align_export(before, after)
+    state = addon.scene_diff.align_export(before, after)
     retired = state.meshes[[m.name for m in before.meshes].index(ob.name)]
-    assert not retired.visible and addon.bake.RETIRED in retired.name   # re-added with the new colours
+    assert not retired.visible and addon.scene_diff.RETIRED in retired.name   # re-added with the new colours
     assert state.meshes[-1].name == ob.name and not np.array_equal(
         state.meshes[-1].corner_reflectance, before.mesh(ob.name).corner_reflectance)
 
@@ -118,8 +117,8 @@ def test_white_is_taken_just_below_one_and_said_so(addon):
 
 
 def test_frames_reuse_what_was_sampled_and_an_edit_reads_the_image_again(addon, monkeypatch):
-    """Live update on frame changes reuses what earlier frames sampled from an image (a 4k image took
-    40-60 ms of every frame's export); an edit reads it anew, so new pixels reach the colours."""
+    """Live update on frame changes reuses what earlier frames sampled from an image (reading a 4k image
+    costs every frame's export tens of milliseconds); an edit reads it anew, so new pixels reach the colours."""
     live = addon.live_update
     ob = textured_grid("Linear", "sRGB", 1.0)
     scene = bpy.context.scene
@@ -183,7 +182,7 @@ def test_colour_attribute_colours_reach_the_corners_as_cycles_bakes_them(addon, 
         me.color_attributes.render_color_index = me.color_attributes.find("Paint")
     tree.links.new(source.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
     sx = corners_as_cycles_bakes_them(addon, ob, f"{kind} on {domain}, {node}")
-    assert "colour attributes" in addon.bake.effects_of(sx)
+    assert "colour attributes" in addon.effects.describe(sx)
 
 
 def test_a_colour_attribute_missing_or_the_bakes_own_output_is_reported(addon):

@@ -5,10 +5,10 @@ of a smooth-shaded diffuse surface, without Cycles: what a corner should hold.
 
 The cube [-1, 1]^3 faces inward; every face emits 1 and reflects rho = 0.8. A point's shading normal
 is its triangle's corner normals (along the diagonals) interpolated barycentrically, as Cycles
-interpolates them (a bilinear interpolation gave the same); the walk samples a cosine lobe about it
+interpolates them (a bilinear interpolation gives the same); the walk samples a cosine lobe about it
 and drops the directions under the facet (Cycles' bsdf_diffuse_sample), and a ray that meets
 another face at the corner it leaves meets it there. Prints the mean (1 - rho) B at a corner and its
-standard error: 0.6310 +- 0.0005 with 400,000 paths (2026-12-05, 2 s). Cycles' own bake of that
+standard error: 0.6310 +- 0.0005 with 400,000 paths (2 s). Cycles' own bake of that
 cube's corners gives 0.615 (curved_furnace.json), the engine 0.634 (test_module.py).
 """
 import sys

@@ -17,7 +17,7 @@ and "<object>:corner_traced_error", (K,3) in loop order, NaN at emitting corners
 "traced_paths"): the reference at junctions, where Cycles' own corner value is ill-posed
 (reference.py: limit_reference).
 
-2026-12-05, cornell_box, 100,000 paths (4-19 s each). Where Cycles' corner is well-posed: Ceiling
+On cornell_box, 100,000 paths a corner (4-19 s each), where Cycles' corner is well-posed: Ceiling
 loop 5 0.2662 +- 0.0012 (Cycles 0.2663), ShortBox loop 7 1 mm down 0.0424 +- 0.0003 (0.0424),
 TallBox loop 2 1.1774 +- 0.0011 (1.1692: +0.7%, not explained; its direct light alone, 0.9453 +-
 0.0004, is the engine's within 0.1%: 0.9463 at default, 0.9457 at high). ShortBox loop 4, the -y

@@ -74,11 +74,11 @@ STEPS = [
 
 
 @pytest.mark.parametrize("preset, threshold, patch_size, bound, smooth", [
-    # The issue's check: the default preset's sampling and threshold (coarser patches to stay quick).
+    # The target's check: the default preset's sampling and threshold (coarser patches to stay quick).
     ("default", None, 0.35, 0.01, False),
     # Converged tightly, the two agree far closer (within 1e-4 measured). A moved object's cluster
-    # tree is built anew where it lands, as a fresh solve builds it: refitted, it kept the update
-    # 0.1-0.2% from a fresh solve, 0.4-1% for the smooth cube once deformed.
+    # tree is built anew where it lands, as a fresh solve builds it: refitted, it would keep the
+    # update 0.1-0.2% from a fresh solve, 0.4-1% for the smooth cube once deformed.
     ("draft", 1e-4, 0.35, 3e-4, False),
     # A smooth-shaded cube, whose points keep their direct and reflected light apart (a face sends
     # on more of its reflected light than its corners show: corner_view.h).
@@ -182,8 +182,8 @@ def test_a_change_of_topology_is_the_old_object_hidden_and_the_new_one_added():
 def test_added_materials_and_lamps_light_up_incrementally():
     # Reflected light shoots from the clusters of the tree each solver built, and the room's tree
     # with additions grafted on is not the tree a fresh solve builds: at draft's 16 samples that
-    # alone parted them by 0.047% (on an AMD EPYC; under 0.03% on the machine this was written
-    # on), however tight the threshold. With the lamps' density for reflected light too, 0.008%.
+    # alone parts them by up to 0.05%, however tight the threshold; with the lamps' density for
+    # reflected light too, by 0.008%.
     s = settings("draft", 1e-4)
     s.samples_indirect = s.samples_direct
     scene, ids, _ = changing_room(dict(ROOM_STATE, cube_visible=None), patch_size=0.35)
@@ -232,7 +232,7 @@ def rug_room(world, reflected=False, n=10):
     """The changing room at the default preset's sampling with a grid of n x n quads on its floor, so
     that many reported points have near direct light worked out (Settings.exact_near_direct), and
     with `reflected` the reflected light too (Settings.exact_near_reflected), at draft's sampling:
-    at the default's, a read took 30 s."""
+    at the default's a read takes half a minute."""
     scene, ids, cube = changing_room(dict(ROOM_STATE, world=world), patch_size=0.35)
     x, y = np.meshgrid(np.linspace(-0.95, 0.95, n + 1), np.linspace(-0.95, 0.95, n + 1))
     corners = np.stack([x.ravel(), y.ravel(), np.full(x.size, 0.002)], 1)
@@ -255,7 +255,7 @@ def rug_room(world, reflected=False, n=10):
                                                         ((0.0, 0.0, 0.0), True, 2, 0.0)])
 def test_near_direct_light_kept_across_moves_equals_it_worked_out_anew(world, reflected, n, bound):
     kept, ids, cube = rug_room(world, reflected, n)
-    if reflected:  # the blocks (ids[2]): their reflected light took 7.5 s a read, 30 of the 52 s
+    if reflected:  # the blocks (ids[2]): their reflected light costs most of each read's time
         ids = [i for i in ids if i != ids[2]]
     read = lambda solver: np.concatenate([solver.corner_radiance(i) for i in ids])  # noqa: E731
     anew, _, _ = rug_room(world, reflected, n)  # the same states, its near light read only at the end

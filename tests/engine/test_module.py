@@ -143,9 +143,8 @@ def test_box_standing_on_the_floor_is_lit_at_its_foot(reflected):
 
 
 def test_the_light_at_a_box_foot_is_gathered_at_the_solves_own_sampling():
-    # The pieces by the tall block's feet gather every shooter's reflected light. With 4 far samples
-    # a shooter there (until 2026-12-06) these corners came 4% dark, with 8 3.6% bright; with 16,
-    # this preset's own sampling, and with 32 or 64 they read the values below.
+    # The pieces by the tall block's feet gather every shooter's reflected light at this preset's own
+    # sampling: these corners read what 32 or 64 far samples a shooter give (the values below).
     scene, ids = cornell_box(patch_size=0.2)
     settings = engine.Settings.preset("default")
     settings.exact_near_reflected = True
@@ -159,7 +158,7 @@ def test_the_light_at_a_box_foot_is_gathered_at_the_solves_own_sampling():
 def test_every_corner_of_a_quad_that_is_not_flat_is_lit(rise):
     # A 1 m quad with one corner raised, under a sun straight down: Embree traces it as two
     # triangles folded along a diagonal, and the points of the other diagonal, nudged towards the
-    # quad's centre, went under the triangle beside them and got nothing. Flat-shaded, each corner
+    # quad's centre, lie under the triangle beside them: they still get the sun. Flat-shaded, each corner
     # takes the quad's normal, half the cross product of its diagonals: (rise, -rise, 2) here.
     scene = engine.Scene()
     scene.add_sun_light((0, 0, -1), (3, 3, 3))
@@ -175,8 +174,8 @@ def test_every_corner_of_a_quad_that_is_not_flat_is_lit(rise):
 @pytest.mark.parametrize("rise", [0.01, 0.2])
 def test_a_quad_that_is_not_flat_sends_all_its_light(rise):
     # A glowing quad with one corner raised, over a floor, against the two triangles Embree traces
-    # for it. Its cells behind those triangles were taken not to see the quad's own corners, and so
-    # sent nothing: the floor got 0.53 of the light, however slight the rise.
+    # for it. Its cells behind those triangles still see the quad's own corners and send their light:
+    # taken as hidden, they would leave the floor 0.53 of it, however slight the rise.
     def floor_light(triangles):
         scene = engine.Scene()
         glow = scene.add_material((RHO,) * 3, (1.0,) * 3)
@@ -219,11 +218,10 @@ def bumpy_box(scene, jitter, rho=RHO):
 
 @pytest.mark.parametrize("jitter, rho, mean_within, within", [(0.02, RHO, 5e-3, 5e-3), (0.1, 0.9, 5e-3, 0.1)])
 def test_a_bumpy_furnace_keeps_its_light(jitter, rho, mean_within, within):
-    # Case 10 on a box bumpy by 1%. Before its cells sent light from their own corners, it came out
-    # at 0.93 of E / (1 - rho), some corners at 0.5. By 5% and at rho = 0.9 (ten bounces' worth of
-    # the bumps' own error, 9% at worst) it came out at 0.90, some corners 0.43: at 4 x 4 cells a
-    # patch, the reflected shots sent the corners at its folds nothing from the cells beside them,
-    # whose planes they lay behind.
+    # Case 10 on a box bumpy by 1%, and by 5% at rho = 0.9 (ten bounces' worth of the bumps' own
+    # error, 9% at worst): every corner keeps E / (1 - rho). Each cell sends light from its own
+    # corners, so that at 4 x 4 cells a patch the corners at its folds, which lie behind the planes of
+    # the cells beside them, still get those cells' reflected light.
     scene = engine.Scene()
     obj = bumpy_box(scene, jitter, rho)
     settings = engine.Settings.preset("default")
@@ -239,12 +237,10 @@ def test_a_bumpy_furnace_keeps_its_light(jitter, rho, mean_within, within):
                                                      (0.1, 256, 3e-2)])
 def test_every_corner_of_a_bumpier_box_gets_its_first_bounce_at_any_sample_count(jitter, samples, within):
     # One bounce in a box bumpy by 2.5% and 5%: each corner gets 1 + RHO, all it sees glowing with 1.
-    # The ends of rays to a patch were lifted off it by its whole bulge; where cells are small
-    # enough (from 64 samples a shooter) that cleared a corner's neighbour, and corners at the box's
-    # edges got 1.32. The lift now follows how far the patch lies off its triangles at each end. A
-    # cell by the box's fold, and its patch's corners there, lifted by the whole bulge through the
-    # other wall, saw none of them and sent nothing: by 5%, from 144 samples, corners beside it got
-    # 1.25. It now tries again lifted by what its own place needs.
+    # The ends of rays to a patch are lifted off it by how far the patch lies off its triangles at
+    # each end, not by its whole bulge, which from 64 samples a shooter would clear a corner's
+    # neighbour; a cell by the box's fold whose lift takes it through the other wall tries again,
+    # lifted by what its own place needs.
     scene = engine.Scene()
     obj = bumpy_box(scene, jitter)
     settings = engine.Settings.preset("default")
@@ -258,9 +254,9 @@ def test_every_corner_of_a_bumpier_box_gets_its_first_bounce_at_any_sample_count
 def test_every_corner_of_a_gently_bumpy_flat_shaded_grid_gets_its_facets_light():
     # A 12 x 12 grid with random heights (slopes up to 5 degrees) under a sun straight down: a
     # height field, so nothing shadows, and its folds are too shallow to light each other (0.1%).
-    # Each corner gets RHO E cos / pi, cos its face's. Before the points came up onto the traced
-    # triangles, 3 corners were black; before a point holding two opposite faces of a vertex went
-    # into one of them, 2 got 1.5 times the light (Lambert's formula at the other faces' corners).
+    # Each corner gets RHO E cos / pi, cos its face's: its point sits on the traced triangles, not
+    # under them in the dark, and a point holding two opposite faces of a vertex goes into one of
+    # them, not Lambert's formula at the other faces' corners.
     n = 12
     a, b = np.meshgrid(np.linspace(0, 1, n + 1), np.linspace(0, 1, n + 1))
     heights = 0.08 / n * np.random.default_rng(1).random(a.size)
@@ -328,11 +324,9 @@ def test_foot_where_a_shadow_edge_starts_sees_the_lit_floor_exactly(patch_size, 
 def test_a_partly_hidden_emitter_lights_alike_however_finely_split(split):
     # A 1 m emitter 2 m up, a wall up to its height that hides the part of it where m.y > c from
     # the floor's centre: that point gets RHO L times the rest's form factor. 64 direct samples
-    # see the emitter as 8 x 8 clusters whatever its patches; when a far sample aimed at its
-    # anchor patch's centre (a quarter of a cluster off its centroid once 2 x 2 patches tile it),
-    # the grid of samples moved with the split: 1.005 / 1.069 / 1.027 times the value at 8 / 16 /
-    # 32 patches a side. The Cornell box's short box, its light split 16 x 16 at patch sizes 1/64
-    # and 1/96, got 0.023 of direct light on the floor at its foot where Cycles gives 0.032.
+    # see the emitter as 8 x 8 clusters whatever its patches: a far sample aims at its cluster's
+    # centroid, not at its anchor patch's centre (a quarter of a cluster off once 2 x 2 patches tile
+    # it), which would move the grid of samples with the split (up to 1.069 times the value).
     a, top, c, turn = 0.5, 1.999, 0.2, math.radians(30)
     scene, floor = floor_scene(6.0)
     obj = floor.add_to(scene, refine="bilinear", patch_size=0.5)
@@ -653,8 +647,9 @@ def boxes_standing_in_each_other(threshold):
 def test_boxes_standing_in_each_other_see_the_floor_and_their_tops_once():
     """Two boxes standing in each other on a floor: inside them the floor and both bottoms lie in one
     plane, and where they overlap so do their tops. Each of those surfaces is seen once, as Cycles'
-    first hit sees one (visibility.h, Coincident). Seen three times, the floor made the boxes' insides
-    reflect more than they took in, and at a tight threshold the light grew without end."""
+    first hit sees one (visibility.h, Coincident). Seen more than once, the floor would make the
+    boxes' insides reflect more than they take in, and at a tight threshold the light would grow
+    without end."""
     solver, stats, boxes = boxes_standing_in_each_other(1e-6)
     assert stats["converged"] and not stats["diverged"] and stats["shots"] < 200
     # Nothing anywhere, inside or out, brighter than the sunlit tops: rho E cos / pi.
@@ -768,8 +763,8 @@ def test_catmull_clark_refines_onto_the_limit_surface():
 
 def test_a_refined_furnace_keeps_its_light():
     # Case 10 at the default preset's refinement, where reflected light shoots from clusters: a far
-    # cluster's form factor by the disc approximation, right on its axis only, fell 15% short beside
-    # a room's edges at three radii, and this furnace came out at 0.980 of E / (1 - rho) (min 0.965).
+    # cluster's form factor holds off its axis too (the disc approximation, right on its axis only,
+    # falls 15% short beside a room's edges).
     rho = 0.9
     scene = engine.Scene()
     m = scene.add_material((rho,) * 3, (1.0, 1.0, 1.0))
@@ -845,10 +840,9 @@ def curved_furnace(rho, level=3):
 def test_a_curved_objects_far_clusters_send_all_its_light():
     # A glowing Catmull-Clark cube in a dark closed room: what the walls gather from it with 16
     # samples per shot (its far clusters stand for their patches) against 256 (its patches' cells
-    # everywhere). Before: 15% short. A far sample's ray ended on its anchor patch's bilinear surface,
-    # which on a twisted patch lies behind Embree's triangles, and the whole cluster counted as
-    # hidden (12%); and clusters curved up to 26 degrees counted the members seen edge-on against
-    # the rest (3%).
+    # everywhere). A far sample's ray to its anchor patch's bilinear surface, which on a twisted patch
+    # lies behind Embree's triangles, must not count the whole cluster as hidden (12% of the light),
+    # nor may a cluster curved up to 26 degrees count its members seen edge-on against the rest (3%).
     gathered = []
     for samples in (16, 256):
         scene = engine.Scene()
@@ -909,8 +903,8 @@ def test_inside_a_smooth_shaded_cube_as_cycles_bakes_it():
     # add-on sends it (split to a preset's patch size). Each corner's normal lies along a diagonal,
     # 54.7 degrees off its three facets, and reflects (1 + cos) / 2 = 0.79 of the light round it;
     # inside the faces the normals tilt less, and send on more. Cycles' corners: 0.615 of
-    # E / (1 - rho) (min 0.608, max 0.622); ours 0.634, at draft and default alike (2026-12-05;
-    # unsplit faces, 0.617). Random walks of Cycles' model of the same cube without Cycles
+    # E / (1 - rho) (min 0.608, max 0.622); ours 0.634, at draft and default alike (unsplit
+    # faces, 0.617). Random walks of Cycles' model of the same cube without Cycles
     # (smooth_cube_walk.py) give 0.6310 +- 0.0005: ours +0.5%, Cycles' bake -2.5%.
     with open(os.path.join(os.path.dirname(__file__), "..", "cycles_reference", "curved_furnace.json")) as f:
         cycles = json.load(f)
@@ -924,7 +918,7 @@ def test_rays_reach_a_twisted_patch():
     # Nearly no reflection: B - E is rho times the light gathered from the whole surface, most of
     # one bounce and rho of the next; no more than 1 / (1 - rho) in all. A point inside sees all of
     # the surface but what lies under its corners' facets (0.4% at level 3). Rays ending on a
-    # twisted patch short of its bulge off Embree's triangles were blocked: 0.93 arrived at level 3.
+    # twisted patch short of its bulge off Embree's triangles are not blocked (else 0.93 at level 3).
     rho = 0.01
     gathered = (curved_furnace(rho)[:, 0] - 1.0) / rho
     assert gathered.min() > 0.99 and gathered.max() < 1 / (1 - rho)
@@ -934,13 +928,12 @@ def test_rays_reach_a_twisted_patch():
 def test_inside_a_curved_furnace_as_cycles_bakes_it(level, bound):
     # Inside a closed surface every patch emits E and reflects rho: B = E / (1 - rho) on flat
     # faces. Cycles' smooth-shaded corners drop what lies under their facets, and on a concave
-    # surface the facets next to a corner show it the rest at close range (corner_view.h): the
-    # point, which gathers nothing from the patches it lies on, missed that (-41 / -18 / -5.6%
-    # against Cycles' bake of the same cube, curved_furnace.json, at levels 1-3). Taking it gave
-    # -9.5 / -3.2 / -0.9%: inside a face Cycles' shading normal tilts less from the facet than at
-    # the corners, so the face sends on more light than its corners show. Sending that on (the
-    # patch's interior share over the corner's): -1.8 / -0.50 / -0.17%. Points set off in front of
-    # a concave surface rather than along its tangent plane: -0.94 / -0.15 / -0.10%.
+    # surface the facets next to a corner show it the rest at close range (corner_view.h), which the
+    # point, gathering nothing from the patches it lies on, takes from them. Inside a face Cycles'
+    # shading normal tilts less from the facet than at the corners, so the face sends on more light
+    # than its corners show: the patch sends its interior share over the corner's. Its points are set
+    # off in front of a concave surface, not along its tangent plane. Against Cycles' bake of the same
+    # cube (curved_furnace.json) that leaves -0.94 / -0.15 / -0.10% at levels 1-3.
     with open(os.path.join(os.path.dirname(__file__), "..", "cycles_reference", "curved_furnace.json")) as f:
         cycles = json.load(f)
     ours = curved_furnace(cycles["rho"], level).mean(1) * (1 - cycles["rho"])
