@@ -1,6 +1,9 @@
 #include "db_cache.h"
 
+#include "visibility.h"
+
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <iterator>
 
@@ -150,6 +153,23 @@ std::size_t DbCache::bytes() const {
                   staged_.capacity() * sizeof(Staged);
   for (const std::vector<Known>& k : known_) b += k.capacity() * sizeof(Known) + (k.capacity() ? kAllocation : 0);
   return b;
+}
+
+unsigned DbCache::trace_without(const Visibility& vis, int object, RTCRay* rays, unsigned count,
+                                const Coincident* coincident) {
+  Answer known[kMaxRays];
+  find(rays, count, known);
+  RTCRay missed[kMaxRays];
+  unsigned where[kMaxRays], misses = 0;
+  for (unsigned i = 0; i < count; ++i) switch (known[i]) {
+      case unknown: missed[misses] = rays[i], where[misses++] = i; break;
+      case blocked: rays[i].tfar = -INFINITY; break;
+      case clear: break;
+    }
+  vis.occluded_without(object, missed, misses, coincident);
+  if (count > 0) stage(rays, where, missed, misses, count - misses);
+  for (unsigned k = 0; k < misses; ++k) rays[where[k]].tfar = missed[k].tfar;
+  return misses;
 }
 
 }  // namespace radiosity

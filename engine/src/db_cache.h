@@ -33,9 +33,13 @@
 
 namespace radiosity {
 
+class Visibility;
+struct Coincident;
+
 class DbCache {
  public:
   enum Answer : uint32_t { unknown = 0, clear = 1, blocked = 2 };
+  static constexpr unsigned kMaxRays = 256;  // trace_without's at once
 
   explicit DbCache(double megabytes);
 
@@ -49,6 +53,12 @@ class DbCache {
   // is over.
   void stage(const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count, unsigned hits);
   void commit();
+
+  // Traces `count` rays (kMaxRays at most) against the scene without `object`, as
+  // Visibility::occluded_without does, through the cache: what it knows it answers, what it does not
+  // is traced and staged. Returns the rays it traced. From any thread of a gather.
+  unsigned trace_without(const Visibility& vis, int object, RTCRay* rays, unsigned count,
+                         const Coincident* coincident);
 
   struct Counts {
     long long hits = 0, misses = 0;

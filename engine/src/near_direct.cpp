@@ -19,6 +19,8 @@
 // under-read the foot of a box on it (the Cornell short box's +x foot 0.1256 against Cycles' 0.140)
 // and a room's concave corners; with it at `high` the samples' corners came 1.44 -> 1.15% RMS from
 // Cycles (Cornell box), 1.12 -> 0.92% (subsurf room), 0.92 / 1.16 / 0.94 -> 0.61 / 1.02 / 0.81%
+#include "gather.h"
+
 // (animated room at frames 1 / 12 / 24; test_cycles_agreement.py).
 #include "solver_impl.h"
 
@@ -154,8 +156,8 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   // Taken back: what the patch's shots sent (all of it, or the direct light it reflected).
   for (int k = 0; k < 8; ++k)
     corners[k] = !d.step[k % 2] ? dvec3(0.0) : all ? -shot[q][k] : -rho[k / 2] * corners[k];
-  Shot whole = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[patch_shooter[q]], nd.scratch,
-                            settings.samples_indirect, 1.0, settings.near_factor);
+  Shot whole = cluster_shot(shot_scene(), shooters[patch_shooter[q]], nd.scratch, 1.0,
+                            {settings.samples_indirect, settings.near_factor});
   corners.fill(dvec3(0.0));
   // The patch's own cells, as one leaf whose far cells send nothing.
   Shot& leaf = d.interpolated;

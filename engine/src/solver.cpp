@@ -3,6 +3,7 @@
 #include "solver_impl.h"
 
 #include "dispatch.h"
+#include "gather.h"
 
 #include <algorithm>
 #include <chrono>
@@ -151,8 +152,7 @@ std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>&
     for (int i = n.begin; i < n.end && !any; ++i)
       for (const dvec3& v : radiance[tree.order[i]]) any |= abs_sum(v) > 0;
     if (!any) continue;
-    Shot shot =
-        cluster_shot(mesh, tree, vis.get(), &shot_cache, node, radiance, samples, scale, settings.near_factor, far_samples);
+    Shot shot = cluster_shot(shot_scene(), node, radiance, scale, {samples, settings.near_factor, far_samples});
     shot.reflected = reflected;
     out.push_back(shot_source(std::move(shot), int(s), {n.centroid, n.radius}));
   }
@@ -243,8 +243,8 @@ double Solver::Impl::relaxation(Sampling sampling, double residual) const {
 }
 
 bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, double omega) {
-  Shot sent = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[s], unshot, settings.samples_indirect,
-                           omega, settings.near_factor, far_samples(power[s], sampling));
+  Shot sent = cluster_shot(shot_scene(), shooters[s], unshot, omega,
+                           {settings.samples_indirect, settings.near_factor, far_samples(power[s], sampling)});
   sent.reflected = true;
   patch_power.resize(mesh.patches.size());
   // The delta is applied on every core the gather ran on, after one barrier: on one thread it was a

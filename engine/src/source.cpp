@@ -1,5 +1,7 @@
 #include "source.h"
 
+#include "gather.h"
+
 #include <algorithm>
 #include <cmath>
 
