@@ -7,7 +7,7 @@ namespace radiosity {
 
 namespace {
 
-// Per facet corner. The curved furnace (test_module.py) moves by 0.02% from 16 to 32, 0.15% at 8.
+// Per facet corner: the curved furnace (test_module.py) moves by 0.02% from 16 to 32.
 constexpr int kAzimuthSteps = 16;
 
 // A patch corner's facet: the plane of its two edges at the corner.

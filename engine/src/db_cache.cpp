@@ -85,7 +85,7 @@ void DbCache::stage(const RTCRay* rays, const unsigned* which, const RTCRay* tra
 void DbCache::commit() {
   if (staged_.empty()) return;
   // A receiver's rays come in a row: runs of one origin. Sorted by run, then each origin's answers
-  // apart: a sort of all of them at once cost a drag (every update new answers) what it spared.
+  // apart: a sort of all of them at once would cost a drag (every update new answers) what it spares.
   std::vector<std::size_t> runs;
   for (std::size_t k = 0; k < staged_.size(); ++k)
     if (k == 0 || staged_[k].origin != staged_[k - 1].origin) runs.push_back(k);
@@ -134,7 +134,7 @@ void DbCache::commit() {
     std::vector<Known> merged;
     merged.reserve(old.size() + (last - first));
     std::merge(old.begin(), old.end(), first, last, std::back_inserter(merged), before);
-    // A ray asked twice in one gather (by two threads) was staged twice, with one answer.
+    // A ray asked twice in one gather (by two threads) is staged twice, with one answer.
     merged.erase(std::unique(merged.begin(), merged.end(), [](const Known& a, const Known& b) { return a.rest == b.rest; }),
                  merged.end());
     entries_ += merged.size() - old.size();

@@ -28,8 +28,8 @@ constexpr bool kWhole = false;
 
 // When a change leaves less than this part of the light (the main lamp turned off), what was shot
 // of the old light would have to cancel to the new scene's precision; its sampling errors, relative
-// to the old light, would be that much larger in the new one (a 20 W cube vanishing from a room lit
-// by 0.2: 1.3% from a fresh solve at the default threshold). Solving the new scene afresh is exact.
+// to the old light, would be that much larger in the new one (a bright cube vanishing from a dim
+// room). Solving the new scene afresh is exact.
 constexpr double kRestartBelow = 0.1;
 
 // Groups of receivers whose sources an update culls together, relative to a shooter's size.
@@ -112,8 +112,8 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     return done();
   }
   double light = injected_power;
-  // What the near direct light worked out stands where the direct light did: only objects moved,
-  // none of them an emitter, and only near them (a 3,721-vertex rug, default: 4.1 s a read).
+  // What the near direct light worked out stands where the direct light does (a read costs seconds
+  // in a large room): only objects moved, none of them an emitter, and only near them.
   bool light_changed = changes.world || !changes.lamps.empty() || !changes.materials.empty();
   std::vector<int> objects;
   std::vector<Zone> zones;

@@ -1,4 +1,4 @@
-// One shot of progressive refinement: what a shooter sends, and how a receiving point gathers it.
+// One shot of progressive refinement: what a shooter sends (gather.h: how a receiving point takes it).
 //
 // A shot is a small hierarchy: the shooter's clusters, each with its mean unshot radiance per side,
 // and at the bottom the m x n micro-elements (cells) of its patches. Far from the receiver a flat
@@ -84,8 +84,8 @@ struct ShotElement {
   double anchor_lift = 0.0;  // ClusterNode::aim_lift
   int anchor_under_patch = -1;  // as ShotPatch::under_patch, for the anchor's patch
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
-  // ClusterNode::planar. On a wall or floor, a receiver's walk reached the patches round it in its
-  // own plane and split them finely, for rays that came to nothing.
+  // ClusterNode::planar: a receiver's walk passes it over when it sees it edge-on, as a point on a
+  // wall or floor sees the patches round it in its own plane, which would send it nothing.
   bool planar = false;
 };
 

@@ -222,8 +222,8 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
     batch.flush();
     rays += batch.rays_traced();
     // Cleared by whichever thread is done gathering first, while the other finishes: on one thread
-    // before the region it was 29% of a draft solve's serial work (callgrind), and a barrier of its
-    // own would cost a time slice under load.
+    // before the region it would be a large part of a draft solve's serial work, and a barrier of
+    // its own would cost a time slice under load.
 #pragma omp for schedule(dynamic, 1024) nowait
     for (int i = 0; i < int(spare_front.size()); ++i) spare_front[i] = spare_back[i] = dvec3(0.0);
     if constexpr (!std::is_same_v<std::decay_t<Then>, Nothing>) {

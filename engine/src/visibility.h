@@ -51,9 +51,9 @@ RADIOSITY_LANES void segment_ends(const V& x, const V& n, const V& y, const V& m
 // end's plane, and a hit near its end blocks it only on an object of lower index than its target's,
 // or, where the target lies on its own object's patches, on a patch of lower index there: of
 // coincident surfaces one is seen, as a ray tracer's first hit sees one. Ending short of the
-// plane, as other rays do, saw all of them: a box's inside saw the floor and its own bottom, two
-// boxes standing in each other saw the floor three times and their tops twice, and reflected more
-// than they took in (the solve diverged). Same-object patches block only where the target needs it:
+// plane, as other rays do, they would see all of them: a box's inside the floor and its own
+// bottom, two boxes standing in each other the floor three times and their tops twice, reflecting
+// more than they take in (the solve diverges). Same-object patches block only where the target needs it:
 // a ray to a patch corner would be stopped by the patches that share it. Per ray id: the target's
 // object (-1: an ordinary ray), its patch (-1: its own object's patches do not block), and the ray
 // parameter where its end's zone starts.
