@@ -303,7 +303,7 @@ void Solver::Impl::keep_near_direct(const std::vector<int>& objects, const std::
   // for round-off (the solver's direct light is the difference of two sums that reflected light
   // adds to alike). The world's light is let pass: every sky ray may cross the object, and past
   // the points near it (below) what it takes is a smooth part of the sky, which interpolation
-  // between corners holds (kept against worked out anew: within 2e-5, test_dynamic.py).
+  // between corners holds (test_dynamic.py compares it kept against worked out anew).
   std::unordered_map<int, bool> stale;
   auto patch_stale = [&](int q) {
     auto [it, fresh] = stale.try_emplace(q, false);

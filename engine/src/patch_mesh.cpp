@@ -174,9 +174,9 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
     double rise = glm::dot(towards, rp.normal);
     rp.position += kInwardNudge * (rise > 0 ? towards : towards - rise * rp.normal);
     // Embree traces a quad as the triangles (v0, v1, v3) and (v2, v3, v1). Where the quad is not
-    // planar, the way to the patch centres can pass under them: a quad with one corner raised put
-    // the corners of the other diagonal under the triangle beside them, and every ray they sent hit
-    // it (black corners). The point comes up onto them along its normal.
+    // planar, the way to the patch centres can pass under them: a quad with one corner raised puts
+    // the corners of the other diagonal under the triangle beside them, where every ray they send
+    // would hit it (black corners). The point comes up onto them along its normal.
     double up = 0.0;
     for (int i = pm.point_slot_begin[p]; i < pm.point_slot_begin[p + 1]; ++i) {
       const Patch& patch = pm.patches[pm.point_slots[i] / 4];

@@ -217,7 +217,7 @@ Shot cluster_shot(const ShotScene& scene, int node, const std::vector<CornerUnsh
   if (far_samples < samples) frontier = frontier_of(tree, node, std::max(1, far_samples));
 
   Shot shot;
-  // Sized up front: growing them copied every element and cell already built, several times a shot.
+  // Sized up front: growing them would copy every element and cell already built, several times a shot.
   const ClusterNode& root = tree.nodes[node];
   shot.elements.reserve(2 * (root.end - root.begin) - 1);
   shot.patches.reserve(root.end - root.begin);
