@@ -2,8 +2,8 @@
 
 namespace radiosity {
 
-unsigned ChangedRays::sort(RTCRay* rays, dvec3** into, dvec3* carried, unsigned count, const Coincident* coincident,
-                           long long& traced) const {
+unsigned ChangedRays::keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, unsigned count,
+                                  const Coincident* coincident, long long& traced) const {
   // A ray the object's sphere of one place does not reach, the object there cannot block: each ray
   // is traced against the places it passes near, not against both.
   bool blocked[2][kMaxRays];

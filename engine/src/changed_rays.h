@@ -30,8 +30,8 @@ class ChangedRays {
   // ones the move changed, their irradiance signed, and traces those against the rest of the scene:
   // the ones that come back with tfar >= 0 count. Returns how many it moved; adds the rays it
   // traced to `traced`.
-  unsigned sort(RTCRay* rays, dvec3** into, dvec3* carried, unsigned count, const Coincident* coincident,
-                long long& traced) const;
+  unsigned keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, unsigned count, const Coincident* coincident,
+                        long long& traced) const;
 
  private:
   const Visibility& vis_;

@@ -56,7 +56,7 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
   for (; i < count_; ++i) shorten(rays_[i]);
   unsigned pushed = count_;
   if (changed_) {
-    count_ = changed_->sort(rays_, into_, carried_, count_, coincident(), traced_);
+    count_ = changed_->keep_changed(rays_, into_, carried_, count_, coincident(), traced_);
   } else {
     vis_.occluded(rays_, count_, coincident());
     traced_ += count_;
@@ -64,7 +64,7 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
   for (unsigned i = 0; i < count_; ++i)
     if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
   count_ = 0;
-  if (changed_)  // sort moved rays to other slots: each gets its slot's id back
+  if (changed_)  // keep_changed moved rays to other slots: each gets its slot's id back
     for (unsigned k = 0; k < pushed; ++k) rays_[k].id = k;
   if (coincident_) std::fill(target_, target_ + pushed, -1), coincident_ = false;
 }

@@ -32,7 +32,7 @@ struct RayEnd {
 // streams and adds what arrives unoccluded to the receivers' accumulators (front and back side).
 //
 // With ChangedRays, a batch carries only what one object's last move changed (changed_rays.h): it
-// leaves out, as they come, the rays that cannot have changed, and has the rest sorted and traced
+// leaves out, as they come, the rays that cannot have changed, and has the rest sifted and traced
 // there; light that reaches a receiver without a ray cannot have changed either.
 class OcclusionBatch {
  public:
