@@ -19,6 +19,14 @@ using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
 
 dvec3 vec3(const std::array<double, 3>& a) { return dvec3(a[0], a[1], a[2]); }
 
+// Runs `call` without the GIL: C++ work only, on arguments already taken out of Python objects; its
+// result becomes one once the GIL is back.
+template <class Call>
+auto released(Call&& call) {
+  py::gil_scoped_release release;
+  return call();
+}
+
 template <class T>
 std::vector<T> flat(const Array<T>& a) {
   return std::vector<T>(a.data(), a.data() + a.size());
@@ -51,10 +59,12 @@ Refinement refinement(const std::string& name) {
   throw std::invalid_argument("refine must be 'none', 'bilinear' or 'catmull_clark', not '" + name + "'");
 }
 
-py::array_t<float> rows3(std::vector<float> v) {
-  auto* heap = new std::vector<float>(std::move(v));
-  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<float>*>(p); });
-  return py::array_t<float>({py::ssize_t(heap->size() / 3), py::ssize_t(3)}, heap->data(), owner);
+// (N, 3) rows of `v`, which the array takes over (no copy).
+template <class T>
+py::array_t<T> rows3(std::vector<T> v) {
+  auto* heap = new std::vector<T>(std::move(v));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>({py::ssize_t(heap->size() / 3), py::ssize_t(3)}, heap->data(), owner);
 }
 
 py::dict stats_dict(const SolveStats& s) {
@@ -265,8 +275,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
 
   py::class_<Solver>(m, "Solver")
       .def(py::init([](const SceneDesc& scene, const Settings& settings) {
-             py::gil_scoped_release release;
-             return std::make_unique<Solver>(scene, settings);
+             return released([&] { return std::make_unique<Solver>(scene, settings); });
            }),
            py::arg("scene"), py::arg("settings") = Settings())
       .def("solve",
@@ -282,15 +291,23 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("progress") = py::none(),
            "Apply the set_* changes incrementally, then shoot to the threshold (stats as solve(), plus "
            "touched_points). A bad change raises ValueError and leaves the solution as it was.")
+      // The set_* calls that copy an object's description (MeshDesc) do so without the GIL.
       .def("set_transform",
-           [](Solver& s, int object, const Array<double>& m) { s.set_transform(object, matrix(m)); },
+           [](Solver& s, int object, const Array<double>& m) {
+             dmat4 transform = matrix(m);
+             released([&] { s.set_transform(object, transform); });
+           },
            py::arg("object"), py::arg("transform"))
       .def("set_positions",
-           [](Solver& s, int object, const Array<double>& p) { s.set_positions(object, points(p, "positions")); },
+           [](Solver& s, int object, const Array<double>& p) {
+             std::vector<dvec3> positions = points(p, "positions");
+             released([&] { s.set_positions(object, std::move(positions)); });
+           },
            py::arg("object"), py::arg("positions"), "object-space positions, same vertices and faces as added")
       .def("set_visible", &Solver::set_visible, py::arg("object"), py::arg("visible"),
+           py::call_guard<py::gil_scoped_release>(),
            "The object appears or vanishes at the next update() (incrementally)")
-      .def("add", &Solver::add, py::arg("scene"),
+      .def("add", &Solver::add, py::arg("scene"), py::call_guard<py::gil_scoped_release>(),
            "Adds the scene's materials after the solver's (its meshes' material indices count them "
            "so), its meshes as the next object ids and its lamps as the next lamp indices; they come "
            "into the light at the next update(), incrementally (ValueError, changing nothing, on bad "
@@ -331,34 +348,32 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def("cancel", &Solver::cancel)
       .def("record_rays", &Solver::record_rays, py::arg("stride") = 1,
            "Benchmark hook: keep every stride-th batch of visibility rays traced from now on")
-      .def("replay_recorded_rays",
-           [](const Solver& s) {
-             py::gil_scoped_release release;
-             return s.replay_recorded_rays();
-           },
+      .def("replay_recorded_rays", &Solver::replay_recorded_rays, py::call_guard<py::gil_scoped_release>(),
            "Benchmark hook: bare Embree rays per second on the kept rays")
       .def_property_readonly("stats", [](const Solver& s) { return stats_dict(s.stats()); })
       .def("power_balance",
            [](const Solver& s) {
-             PowerBalance b = s.power_balance();
+             PowerBalance b = released([&] { return s.power_balance(); });
              py::dict d;
              d["injected"] = b.injected;
              d["unshot"] = b.unshot;
              d["absorbed"] = b.absorbed;
              return d;
            })
-      .def("corner_radiance", [](const Solver& s, int o, bool exact) { return rows3(s.corner_radiance(o, exact)); },
+      .def("corner_radiance",
+           [](const Solver& s, int o, bool exact) {
+             return rows3(released([&] { return s.corner_radiance(o, exact); }));
+           },
            py::arg("object"), py::arg("exact_near_direct") = true,
            "(K, 3) float32 front-side outgoing radiance per input face corner (exact_near_direct=False: "
            "the near direct light interpolated even with Settings.exact_near_direct)")
-      .def("vertex_radiance", [](const Solver& s, int o) { return rows3(s.vertex_radiance(o)); },
+      .def("vertex_radiance",
+           [](const Solver& s, int o) { return rows3(released([&] { return s.vertex_radiance(o); })); },
            py::arg("object"), "(N, 3) float32 mean of each input vertex's corners")
       .def("refined",
            [](const Solver& s, int o) {
-             Solver::Refined r = s.refined(o);
-             Array<double> pos({py::ssize_t(r.positions.size() / 3), py::ssize_t(3)});
-             std::memcpy(pos.mutable_data(), r.positions.data(), sizeof(double) * r.positions.size());
-             return py::make_tuple(pos, rows3(std::move(r.radiance)));
+             Solver::Refined r = released([&] { return s.refined(o); });
+             return py::make_tuple(rows3(std::move(r.positions)), rows3(std::move(r.radiance)));
            },
            py::arg("object"), "(positions, radiance) per patch corner, 4 rows a patch, world space");
 

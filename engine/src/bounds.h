@@ -17,7 +17,7 @@ inline bool overlap(const Sphere& a, const Sphere& b) {
 }
 
 // Whether the ray origin + t dir, t in [0, t_max], passes through `s`. In squares, with no square
-// root or division: an update asks it millions of times, and their latency was most of its cost.
+// root or division: an update asks it millions of times, and their latency would be most of its cost.
 inline bool ray_crosses(const dvec3& origin, const dvec3& dir, double t_max, const Sphere& s) {
   dvec3 c = s.centre - origin;
   double r2 = s.radius * s.radius;

@@ -8,14 +8,13 @@ namespace radiosity {
 namespace {
 
 // |vector area| / area above which a cluster acts as one sample: a spherical cap 11 degrees from
-// its middle to its rim. At 0.95 (26 degrees) the members a receiver sees edge-on counted against
-// the rest, and a Catmull-Clark cube's far clusters sent its surroundings 3% too little.
+// its middle to its rim. Flatter clusters only: the members a receiver sees edge-on count against
+// the rest (at 0.95 a Catmull-Clark cube's far clusters send its surroundings 3% too little).
 constexpr double kFlat = 0.99;
 
 // How far inside its patch, in (u, v), an aim point stays. On a patch's edge it can lie on a
-// junction: aimed at the foot of a wall from the far side, a ray ran along the next surface
-// through the wall's edge and lit a box in a sealed dark room
-// (SealedRoomsDoNotLeakOntoABoxByTheWall, once dim shots far-sampled whole shooters).
+// junction: aimed at the foot of a wall from the far side, a ray would run along the next surface
+// through the wall's edge and light a box in a sealed dark room (SealedRoomsDoNotLeakOntoABoxByTheWall).
 constexpr double kInset = 0.01;
 
 // The point of a bilinear patch nearest `target`: Gauss-Newton in (u, v), kept kInset inside

@@ -17,14 +17,13 @@ struct ClusterNode {
   dvec3 centroid{0.0};       // area-weighted
   int anchor = -1;           // the patch nearest the centroid: what it sees lights the cluster
   // Where a far sample's ray aims: the anchor's point nearest the centroid. Its centre lies a
-  // quarter of the cluster off the centroid where four patches tile it, which moved the samples of
-  // a partly hidden emitter (the Cornell light, split 16 x 16 for 64 samples) off their grid:
-  // the floor beside the short box got 0.023 of direct light where Cycles gives 0.032.
+  // quarter of the cluster off the centroid where four patches tile it, which would move the
+  // samples of a partly hidden emitter off their grid (the floor beside the Cornell box's short
+  // block would take 0.023 of direct light where Cycles gives 0.032).
   dvec3 aim{0.0};
   // How far the anchor's surface may lie off its triangles (bilinear_bulge): the ray ends that far
-  // short of the aim. On a curved object's twisted patches a ray ending on the surface itself ended
-  // behind the triangles, and its whole cluster counted as hidden: a Catmull-Clark cube's far
-  // clusters sent 15% too little.
+  // short of the aim. On a curved object's twisted patches a ray ending on the surface itself would
+  // end behind the triangles, and its whole cluster count as hidden.
   double aim_lift = 0.0;
   dvec3 vector_area{0.0};    // sum of normal * area: the cluster's projected area in any direction
   double area = 0.0;

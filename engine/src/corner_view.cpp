@@ -7,7 +7,7 @@ namespace radiosity {
 
 namespace {
 
-// Per facet corner. The curved furnace (test_module.py) moves by 0.02% from 16 to 32, 0.15% at 8.
+// Per facet corner: the curved furnace (test_module.py) moves by 0.02% from 16 to 32.
 constexpr int kAzimuthSteps = 16;
 
 // A patch corner's facet: the plane of its two edges at the corner.
@@ -77,7 +77,7 @@ CornerView corner_view(const PatchMesh& pm, int p, const dvec3* corner_normal, i
     // A corner whose shading normal turns more than a right angle from its facet (a mesh whose faces
     // disagree on which side is the front) keeps a share below a half: divided by it, what the point
     // takes at close range without the share (own) would be sent on many times over, and the solve
-    // diverged to inf.
+    // diverge to inf.
     view.onward[i - begin] = patch.interior_share / std::max(share, 0.5);
     live.push_back(i - begin);
   }

@@ -1,6 +1,9 @@
 #include "db_cache.h"
 
+#include "visibility.h"
+
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <iterator>
 
@@ -82,7 +85,7 @@ void DbCache::stage(const RTCRay* rays, const unsigned* which, const RTCRay* tra
 void DbCache::commit() {
   if (staged_.empty()) return;
   // A receiver's rays come in a row: runs of one origin. Sorted by run, then each origin's answers
-  // apart: a sort of all of them at once cost a drag (every update new answers) what it spared.
+  // apart: a sort of all of them at once would cost a drag (every update new answers) what it spares.
   std::vector<std::size_t> runs;
   for (std::size_t k = 0; k < staged_.size(); ++k)
     if (k == 0 || staged_[k].origin != staged_[k - 1].origin) runs.push_back(k);
@@ -131,7 +134,7 @@ void DbCache::commit() {
     std::vector<Known> merged;
     merged.reserve(old.size() + (last - first));
     std::merge(old.begin(), old.end(), first, last, std::back_inserter(merged), before);
-    // A ray asked twice in one gather (by two threads) was staged twice, with one answer.
+    // A ray asked twice in one gather (by two threads) is staged twice, with one answer.
     merged.erase(std::unique(merged.begin(), merged.end(), [](const Known& a, const Known& b) { return a.rest == b.rest; }),
                  merged.end());
     entries_ += merged.size() - old.size();
@@ -150,6 +153,23 @@ std::size_t DbCache::bytes() const {
                   staged_.capacity() * sizeof(Staged);
   for (const std::vector<Known>& k : known_) b += k.capacity() * sizeof(Known) + (k.capacity() ? kAllocation : 0);
   return b;
+}
+
+unsigned DbCache::trace_without(const Visibility& vis, int object, RTCRay* rays, unsigned count,
+                                const Coincident* coincident) {
+  Answer known[kMaxRays];
+  find(rays, count, known);
+  RTCRay missed[kMaxRays];
+  unsigned where[kMaxRays], misses = 0;
+  for (unsigned i = 0; i < count; ++i) switch (known[i]) {
+      case unknown: missed[misses] = rays[i], where[misses++] = i; break;
+      case blocked: rays[i].tfar = -INFINITY; break;
+      case clear: break;
+    }
+  vis.occluded_without(object, missed, misses, coincident);
+  if (count > 0) stage(rays, where, missed, misses, count - misses);
+  for (unsigned k = 0; k < misses; ++k) rays[where[k]].tfar = missed[k].tfar;
+  return misses;
 }
 
 }  // namespace radiosity

@@ -1,5 +1,5 @@
-// The dB cache (issue 4; the paper's per-shooter dB, sec. 5): what the scene without a moved object
-// does to the rays whose visibility that object's moves changed.
+// The dB cache (the paper's per-shooter dB, sec. 4): what the scene without a moved object does to
+// the rays whose visibility that object's moves changed.
 //
 // An update traces each candidate ray against the moved object alone, before and after; a ray the
 // move changed then needs a trace of the whole scene without the object (occluded_without) to know
@@ -7,16 +7,16 @@
 // on where the object is, nor on any light. Kept, it serves every later move of the same object
 // that changes the same ray: a move back changes the rays the move there did (its exit zone that
 // move's enter zone, and the reverse), and a few more: a cell near a receiver asks, with the object
-// where it is, which corners of its patch light the part the receiver sees (shot.cpp: exact_cell).
+// where it is, which corners of its patch light the part the receiver sees (gather.cpp: exact_cell).
 // The next step of a drag asks about few of them: rays that the place it leaves alone blocked, or
-// alone did not. The light a ray carries comes from the
-// shooters' current totals and is worked out anew, so nothing kept goes stale as shooters shoot
-// on; visibility is all there is to keep. Sample positions are deterministic, so a static source and receiver give the same
-// ray, bit for bit, each update: the key is its exact bits, compared whole, not a hash of them.
+// alone did not. The light a ray carries comes from the shooters' current totals and is worked out
+// anew, so nothing kept goes stale as shooters shoot on; visibility is all there is to keep.
+// Sample positions are deterministic, so a static source and receiver give the same ray, bit for
+// bit, each update: the key is its exact bits, compared whole, not a hash of them.
 //
 // Answers are kept per ray origin (a receiving point's side), sorted: a gather asks about one
-// receiver's rays in a row, so a look-up reads memory the one before brought in. Kept in one table
-// by hash, every look-up missed the processor's caches, and updates got slower, not faster.
+// receiver's rays in a row, so a look-up reads memory the one before brought in. In one table by
+// hash, every look-up would miss the processor's caches.
 //
 // The answers hold only while no other object changes: another object's move forgets them (own).
 // Memory stays under the cap (what is kept and one update's new answers together); when full, the
@@ -33,9 +33,13 @@
 
 namespace radiosity {
 
+class Visibility;
+struct Coincident;
+
 class DbCache {
  public:
   enum Answer : uint32_t { unknown = 0, clear = 1, blocked = 2 };
+  static constexpr unsigned kMaxRays = 256;  // trace_without's at once
 
   explicit DbCache(double megabytes);
 
@@ -49,6 +53,12 @@ class DbCache {
   // is over.
   void stage(const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count, unsigned hits);
   void commit();
+
+  // Traces `count` rays (kMaxRays at most) against the scene without `object`, as
+  // Visibility::occluded_without does, through the cache: what it knows it answers, what it does not
+  // is traced and staged. Returns the rays it traced. From any thread of a gather.
+  unsigned trace_without(const Visibility& vis, int object, RTCRay* rays, unsigned count,
+                         const Coincident* coincident);
 
   struct Counts {
     long long hits = 0, misses = 0;

@@ -28,8 +28,8 @@ constexpr bool kWhole = false;
 
 // When a change leaves less than this part of the light (the main lamp turned off), what was shot
 // of the old light would have to cancel to the new scene's precision; its sampling errors, relative
-// to the old light, would be that much larger in the new one (a 20 W cube vanishing from a room lit
-// by 0.2: 1.3% from a fresh solve at the default threshold). Solving the new scene afresh is exact.
+// to the old light, would be that much larger in the new one (a bright cube vanishing from a dim
+// room). Solving the new scene afresh is exact.
 constexpr double kRestartBelow = 0.1;
 
 // Groups of receivers whose sources an update culls together, relative to a shooter's size.
@@ -120,8 +120,8 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     return done();
   }
   double light = injected_power;
-  // What the near direct light worked out stands where the direct light did: only objects moved,
-  // none of them an emitter, and only near them (a 3,721-vertex rug, default: 4.1 s a read).
+  // What the near direct light worked out stands where the direct light does (a read costs seconds
+  // in a large room): only objects moved, none of them an emitter, and only near them.
   bool light_changed = changes.world || !changes.lamps.empty() || !changes.materials.empty();
   std::vector<int> objects;
   std::vector<Zone> zones;
@@ -328,7 +328,7 @@ void Solver::Impl::place(int object, const MeshDesc& m, const PlacedObject& plac
   if (scene.meshes[object].visible || m.visible) db_cache.own(object);  // a hidden one blocks no ray
   scene.meshes[object] = m;
   place_object(mesh, object, m, placed);
-  tree.rebuild(mesh, object);  // as a fresh solve would cluster it there: a refit was 0.4% off a curved one
+  tree.rebuild(mesh, object);  // as a fresh solve would cluster it there: a refit is off on a curved one
   cut_shooters();
   vis->move_object(object, mesh, m.visible);
   mark_hidden(object);
@@ -340,102 +340,154 @@ void Solver::Impl::forget_nodes(int node) {
   shot_cache.forget(patches, node, tree.subtree_end(node));
 }
 
+// What change_object's steps share: the object, where it was and is, and the shooters whose light
+// it changes.
+struct Solver::Impl::ObjectChange {
+  ObjectChange(int object, const MeshDesc& desc, const PlacedObject& placed, const ObjectPatches& patches,
+               const Zone& zone)
+      : object(object), desc(desc), placed(placed), patches(patches), zone(zone) {}
+  int object;
+  const MeshDesc& desc;        // as it is to be
+  const PlacedObject& placed;  // its refined geometry there
+  const ObjectPatches& patches;
+  Zone zone;
+  // The object's own shooters, and those near enough for it to come between their own parts (what
+  // a shooter's samples see of itself is cached, and shapes the light it sends). Flags per shooter
+  // of the cut as it is; the object's are cut anew where it lands, so they are taken again then
+  // (the others keep their nodes, and their order).
+  std::vector<int> near_nodes;  // sorted
+  std::vector<char> own, near;
+  // The cut before the move, and `own` in it: the sources made then name shooters by their index
+  // in it.
+  std::vector<int> shooters_before;
+  std::vector<char> own_before;
+  // Sources as they shoot before the move, made before it: all the direct and reflected light, and
+  // the near shooters' (direct and reflected).
+  std::vector<Source> others_direct, others_reflected, near_before;
+  double own_direct_before = 0.0;  // the direct light landing on the object's points (landed_power)
+
+  bool on_object(int point) const { return point >= patches.point_begin && point < patches.point_end; }
+};
+
+namespace {
+
+// Gathers each receiver's light from all `sources` (of Source or of const Source*), into its batch.
+template <class Sources>
+auto gather_from(const Sources& sources) {
+  return [&sources](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+    for (const auto& s : sources) source_ref(s).gather(i, p, batch);
+  };
+}
+
+}  // namespace
+
 Zone Solver::Impl::change_object(int object, const MeshDesc& m, const PlacedObject& placed) {
-  const ObjectPatches& o = mesh.objects[object];
   if (!scene.meshes[object].visible && !m.visible) {  // hidden before and after: nothing to light
     place(object, m, placed);
     Sphere nowhere{dvec3(0.0), -INFINITY};
     return {nowhere, nowhere};
   }
+  ObjectChange change = begin_change(object, m, placed);
+  take_back_sent(change);
+  keep_sources_before(change);
+  move(change);
+  send_again(change);
+  gather_changed_rays(change);
+  gather_on_object(change);
+  return change.zone;
+}
+
+Solver::Impl::ObjectChange Solver::Impl::begin_change(int object, const MeshDesc& m, const PlacedObject& placed) {
+  const ObjectPatches& o = mesh.objects[object];
   double margin = 2 * vis->epsilon();
   Sphere before = bounds_of({mesh.vertices.begin() + o.vertex_begin, mesh.vertices.begin() + o.vertex_end}, margin);
   Sphere after = bounds_of(placed.at, margin);
-  Zone zone{before, after};
-
-  // The object's own shooters, and those near enough for it to come between their own parts (what
-  // a shooter's samples see of itself is cached, and shapes the light it sends). Flags per shooter;
-  // the object's are cut anew where it lands, so they are taken again then (the others keep their
-  // nodes, and their order).
-  auto on_it = [&](int node) { return mesh.patches[tree.order[tree.nodes[node].begin]].object == object; };
-  std::vector<char> own, near;
-  std::vector<int> near_nodes;
-  auto flag_shooters = [&] {
-    own.assign(shooters.size(), 0), near.assign(shooters.size(), 0);
-    for (size_t s = 0; s < shooters.size(); ++s) {
-      own[s] = on_it(shooters[s]);
-      near[s] = std::binary_search(near_nodes.begin(), near_nodes.end(), shooters[s]);
-    }
-  };
+  ObjectChange change(object, m, placed, o, Zone{before, after});
   for (int node : shooters) {
     const ClusterNode& n = tree.nodes[node];
-    if (!on_it(node) && (overlap({n.centroid, n.radius}, before) || overlap({n.centroid, n.radius}, after)))
-      near_nodes.push_back(node);
+    if (!shoots_from(object, node) && (overlap({n.centroid, n.radius}, before) || overlap({n.centroid, n.radius}, after)))
+      change.near_nodes.push_back(node);
   }
-  std::sort(near_nodes.begin(), near_nodes.end());
-  flag_shooters();
-  auto on_object = [&](int i) { return i >= o.point_begin && i < o.point_end; };
-  auto elsewhere = [&](int i) { return !on_object(i); };
-  auto plain = [this] { return delta_batch(); };
-  auto gather_from = [](const auto& sources) {  // of Source or of const Source*
-    return [&sources](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
-      for (const auto& s : sources) source_ref(s).gather(i, p, batch);
-    };
-  };
-  auto sources_of = [&](double sign, const std::vector<char>* only) {
-    std::vector<Source> s = direct_sources(sign, only);
-    for (Source& r : reflected_sources(sign, only)) s.push_back(std::move(r));
-    return s;
-  };
-  // Direct light (lamps, world, emission) that lands sets the residual's scale, which must follow
-  // it (an emitter that vanishes or appears, a shadow that moves): direct and reflected light are
-  // gathered apart, direct through apply_direct_delta. (Left out: a near emitter re-sent because
-  // the object changed what its samples see of it, a small change.)
-  auto emit_own = [&](double sign) {
-    std::vector<Source> emitted = direct_sources(sign, &own);  // `own` as it is at the time
-    if (emitted.empty()) return;
-    gather_all(elsewhere, plain, gather_from(emitted), kWhole);
-    apply_direct_delta();
-  };
-  // The direct light landing on the object's own points (a closed emitter lights its own inside).
-  auto direct_on_own = [&] {
-    gather_all(on_object, plain, gather_from(direct_sources(1.0, nullptr)), kWhole);
-    return landed_power();
-  };
+  std::sort(change.near_nodes.begin(), change.near_nodes.end());
+  flag_shooters(change);
+  return change;
+}
 
-  // What the object's shooters sent, taken back from where it was. The rest, as they shoot now.
-  emit_own(-1.0);
-  gather_all(elsewhere, plain, gather_from(reflected_sources(-1.0, &own)), kWhole);
+bool Solver::Impl::shoots_from(int object, int node) const {
+  return mesh.patches[tree.order[tree.nodes[node].begin]].object == object;
+}
+
+void Solver::Impl::flag_shooters(ObjectChange& change) const {
+  change.own.assign(shooters.size(), 0), change.near.assign(shooters.size(), 0);
+  for (size_t s = 0; s < shooters.size(); ++s) {
+    change.own[s] = shoots_from(change.object, shooters[s]);
+    change.near[s] = std::binary_search(change.near_nodes.begin(), change.near_nodes.end(), shooters[s]);
+  }
+}
+
+// Direct light (lamps, world, emission) that lands sets the residual's scale, which must follow it
+// (an emitter that vanishes or appears, a shadow that moves): direct and reflected light are
+// gathered apart, direct through apply_direct_delta. (Left out: a near emitter re-sent because the
+// object changed what its samples see of it, a small change.)
+void Solver::Impl::emit_own(const ObjectChange& change, double sign) {
+  std::vector<Source> emitted = direct_sources(sign, &change.own);  // `own` as it is at the time
+  if (emitted.empty()) return;
+  gather_all([&](int i) { return !change.on_object(i); }, [this] { return delta_batch(); }, gather_from(emitted),
+             kWhole);
+  apply_direct_delta();
+}
+
+// The direct light landing on the object's own points (a closed emitter lights its own inside).
+double Solver::Impl::direct_on_own(const ObjectChange& change) {
+  gather_all([&](int i) { return change.on_object(i); }, [this] { return delta_batch(); },
+             gather_from(direct_sources(1.0, nullptr)), kWhole);
+  return landed_power();
+}
+
+void Solver::Impl::take_back_sent(ObjectChange& change) {
+  emit_own(change, -1.0);
+  gather_all([&](int i) { return !change.on_object(i); }, [this] { return delta_batch(); },
+             gather_from(reflected_sources(-1.0, &change.own)), kWhole);
   apply_delta(Light::reflected);
-  std::vector<Source> others_direct = direct_sources(1.0, nullptr);
-  std::vector<Source> others_reflected = reflected_sources(1.0, nullptr);
-  std::vector<Source> near_before = sources_of(1.0, &near);
-  double own_direct_before = direct_on_own();
+}
 
-  // The changed-ray gathers below use sources made before the move, which name shooters by their
-  // index in the cut of then.
-  std::vector<char> own_before = own;
-  std::vector<int> shooters_before = shooters;
-  place(object, m, placed);
-  flag_shooters();
-  if (tree.object_root[object] >= 0) forget_nodes(tree.object_root[object]);
+void Solver::Impl::keep_sources_before(ObjectChange& change) {
+  change.others_direct = direct_sources(1.0, nullptr);
+  change.others_reflected = reflected_sources(1.0, nullptr);
+  change.near_before = direct_sources(1.0, &change.near);
+  for (Source& r : reflected_sources(1.0, &change.near)) change.near_before.push_back(std::move(r));
+  change.own_direct_before = direct_on_own(change);
+}
+
+void Solver::Impl::move(ObjectChange& change) {
+  change.own_before = change.own;
+  change.shooters_before = shooters;
+  place(change.object, change.desc, change.placed);
+  flag_shooters(change);
+  if (tree.object_root[change.object] >= 0) forget_nodes(tree.object_root[change.object]);
   for (size_t s = 0; s < shooters.size(); ++s)
-    if (near[s]) forget_nodes(shooters[s]);
+    if (change.near[s]) forget_nodes(shooters[s]);
+}
 
-  // Sent again from where it is (emission only, if it just appeared: it has reflected nothing yet;
-  // nothing, if it vanished: what it sent was taken back above, so its totals go now); and a near
-  // shooter whose light the move changed, sent anew.
-  if (!m.visible)
+// Sent again from where it is (emission only, if it just appeared: it has reflected nothing yet;
+// nothing, if it vanished: what it sent was taken back, so its totals go now); and a near shooter
+// whose light the move changed, sent anew.
+void Solver::Impl::send_again(ObjectChange& change) {
+  const ObjectPatches& o = change.patches;
+  if (!change.desc.visible)
     for (int p = o.patch_begin; p < o.patch_end; ++p) shot[p].fill(dvec3(0.0));
-  emit_own(1.0);
-  std::vector<Source> resent[2] = {{}, reflected_sources(1.0, &own)};  // emitted, reflected
-  std::vector<Source> near_after = sources_of(1.0, &near);
+  emit_own(change, 1.0);
+  std::vector<Source> resent[2] = {{}, reflected_sources(1.0, &change.own)};  // emitted, reflected
+  std::vector<Source> near_after = direct_sources(1.0, &change.near);
+  for (Source& r : reflected_sources(1.0, &change.near)) near_after.push_back(std::move(r));
+  std::vector<Source>& near_before = change.near_before;
   for (size_t k = 0; k < near_after.size(); ++k)
     if (!same_light(near_before[k].shot, near_after[k].shot)) {
       std::vector<Source>& kind = resent[near_after[k].shot.reflected];
-      // Sent whole twice, a floor shooter beside a box was a fifth of the update's cost; most of
-      // its cells see what they saw.
-      if (std::optional<Shot> change = difference(near_after[k].shot, near_before[k].shot)) {
-        near_after[k].shot = std::move(*change);
+      // Most of a near shooter's cells see what they saw (a floor beside a box): sending only the
+      // difference spares sending it whole twice.
+      if (std::optional<Shot> difference_shot = difference(near_after[k].shot, near_before[k].shot)) {
+        near_after[k].shot = std::move(*difference_shot);
         kind.push_back(std::move(near_after[k]));
         continue;
       }
@@ -446,39 +498,46 @@ Zone Solver::Impl::change_object(int object, const MeshDesc& m, const PlacedObje
   for (Light light : {Light::direct, Light::reflected}) {
     const std::vector<Source>& kind = resent[light == Light::reflected];
     if (kind.empty()) continue;
-    gather_all(elsewhere, plain, gather_from(kind), kWhole);
+    gather_all([&](int i) { return !change.on_object(i); }, [this] { return delta_batch(); }, gather_from(kind),
+               kWhole);
     apply_delta(light);
   }
+}
 
-  // Everything else: only the rays the move changed, for receivers and sources it may stand between.
-  // A source is asked about each point of a group of receivers only if it may be about one of them:
-  // asked about every point, a room's sources were tested millions of times, four in five for nothing.
+// Everything else: only the rays the move changed, for receivers and sources it may stand between.
+// A source is asked about each point of a group of receivers only if it may be about one of them:
+// most of a room's sources pass near no moved object for most receivers.
+void Solver::Impl::gather_changed_rays(ObjectChange& change) {
   ReceiverGroups groups = group_receivers(mesh, tree, kGroupRadius * settings.shooter_size_relative * mesh.diagonal);
+  ChangedRays changed(*vis, change.object, change.zone, db_cache);
   auto gather_changed = [&](const std::vector<Source>& others) {
     std::vector<std::vector<int>> reaching(groups.bounds.size());  // per group, sources by index
     for (size_t g = 0; g < groups.bounds.size(); ++g)
       for (size_t k = 0; k < others.size(); ++k) {
         const Source& s = others[k];
-        if ((s.shooter < 0 || !own_before[s.shooter]) && s.may_reach(groups.bounds[g], zone))
+        if ((s.shooter < 0 || !change.own_before[s.shooter]) && s.may_reach(groups.bounds[g], change.zone))
           reaching[g].push_back(int(k));
       }
-    gather_all(elsewhere, [&] { return changed_batch(object, zone); },
+    gather_all([&](int i) { return !change.on_object(i); }, [&] { return changed_batch(changed); },
                [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
                  long long pushed = batch.rays_pushed();
-                 for (int k : reaching[groups.of[i]]) others[k].gather(i, p, batch, &zone);
+                 for (int k : reaching[groups.of[i]]) others[k].gather(i, p, batch, &change.zone);
                  if (batch.rays_pushed() > pushed) touched[i] = 1;
                },
                kWhole);
     db_cache.commit();
   };
-  gather_changed(others_direct);
+  gather_changed(change.others_direct);
   apply_direct_delta();
-  gather_changed(others_reflected);
+  gather_changed(change.others_reflected);
   apply_delta(Light::reflected);
+}
 
-  // The object's own receiving points: everything, anew (nothing, if it vanished), each kind of
-  // light in place of what it held of it.
-  double own_direct_after = direct_on_own();
+// The object's own receiving points: everything, anew (nothing, if it vanished), each kind of
+// light in place of what it held of it.
+void Solver::Impl::gather_on_object(ObjectChange& change) {
+  const ObjectPatches& o = change.patches;
+  double own_direct_after = direct_on_own(change);
   for (int i = o.point_begin; i < o.point_end; ++i) {
     delta_front[i] -= front[i] - reflected_front[i];
     delta_back[i] -= back[i] - reflected_back[i];
@@ -490,26 +549,26 @@ Zone Solver::Impl::change_object(int object, const MeshDesc& m, const PlacedObje
   // move (its shot is made of what did not move, and of what its samples saw of themselves, which
   // the move left standing), so its shot made then serves.
   std::vector<char> changed(shooters.size());
-  for (size_t s = 0; s < shooters.size(); ++s) changed[s] = own[s] || near[s];
+  for (size_t s = 0; s < shooters.size(); ++s) changed[s] = change.own[s] || change.near[s];
   std::vector<Source> remade = reflected_sources(1.0, &changed);
   std::vector<const Source*> kept(tree.nodes.size(), nullptr), reflected_now;
-  for (const Source& b : others_reflected) kept[shooters_before[b.shooter]] = &b;
+  for (const Source& b : change.others_reflected) kept[change.shooters_before[b.shooter]] = &b;
   auto next = remade.begin();
   for (size_t s = 0; s < shooters.size(); ++s)
     if (!changed[s] && kept[shooters[s]])
       reflected_now.push_back(kept[shooters[s]]);
     else if (changed[s] && next != remade.end() && next->shooter == int(s))
       reflected_now.push_back(&*next++);
-  gather_all(on_object, plain, gather_from(reflected_now), kWhole);
+  gather_all([&](int i) { return change.on_object(i); }, [this] { return delta_batch(); },
+             gather_from(reflected_now), kWhole);
   for (int i = o.point_begin; i < o.point_end; ++i) {
     delta_front[i] -= reflected_front[i];
     delta_back[i] -= reflected_back[i];
   }
   apply_delta(Light::reflected);
-  add_direct_power(own_direct_after - own_direct_before);
-  if (!m.visible)  // what it had not sent yet goes with it (after apply_delta, which reflects into it)
+  add_direct_power(own_direct_after - change.own_direct_before);
+  if (!change.desc.visible)  // what it had not sent yet goes with it (after apply_delta, which reflects into it)
     for (int p = o.patch_begin; p < o.patch_end; ++p) unshot[p].fill(dvec3(0.0));
-  return zone;
 }
 
 }  // namespace radiosity

@@ -28,7 +28,7 @@ struct Edges {  // four 3-vectors, one per lane
 
 // What edge_term needs of one edge (double) or of four (double4).
 inline double root(double v) { return std::sqrt(v); }
-// Two SSE2 square roots of two lanes each (baseline ISA too): std::sqrt lane by lane also tested
+// Two SSE2 square roots of two lanes each (baseline ISA too): std::sqrt lane by lane also tests
 // each for a negative (errno), in the cell's hot path. IEEE square roots: the same bits.
 inline double4 root(const double4& v) {
   __m128d lo = _mm_sqrt_pd(_mm_set_pd(v[1], v[0])), hi = _mm_sqrt_pd(_mm_set_pd(v[3], v[2]));
@@ -45,10 +45,10 @@ inline double4 pick(const long4& m, const double4& a, const double4& b) { return
 //
 // theta = atan2(|a x b|, a.b) by Cephes' rational atan after reducing to [0, 0.66], to double
 // precision. Written without branches and with two divisions (the reduction, and one reciprocal
-// that serves both the rational and 1 / |a x b|), so the four edges of a cell overlap: libm's
-// atan2, then a branchy version with up to four divisions, were a fifth of a draft solve. A cell
-// wholly on one side of the receiver's plane takes its four edges at once (T = double4): a third
-// of the instructions of four edges one by one.
+// that serves both the rational and 1 / |a x b|), so the four edges of a cell overlap rather than
+// wait on libm's atan2 and its divisions in the hottest loop of a solve. A cell wholly on one side
+// of the receiver's plane takes its four edges at once (T = double4): a third of the instructions
+// of four edges one by one.
 template <class T, class V>
 inline T edge_term(const V& n, const V& a, const V& b) {
   const T one = T{} + 1.0, zero = T{} + 0.0;
@@ -153,7 +153,7 @@ void area_moments(Cell& c) {
 
 void bilinear_cells(const dvec3 p[4], int k, Cell* out) {
   // Each grid point is evaluated once and shared with the cells before it in the row and the row
-  // before: evaluating every cell's four corners afresh was most of splitting a near cell 2 x 2.
+  // before: evaluating every cell's four corners afresh would be most of splitting a near cell 2 x 2.
   auto at = [&](int i, int j) { return bilinear(p, double(i) / k, double(j) / k); };
   for (int j = 0; j < k; ++j) {
     for (int i = 0; i < k; ++i) {

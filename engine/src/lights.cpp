@@ -98,14 +98,14 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
     return;  // a closed object's inside, and the lamp outside it
   const dvec3 no_normal(0.0);
   if (lamp.radius <= 0) {
-    batch.to_point(receiver, x, n, lamp.position, no_normal, front, h);
+    batch.to_point({receiver, x, n}, {lamp.position, no_normal}, front, h);
     return;
   }
   dvec3 t, b;
   orthonormal_basis(to_lamp, t, b);
   disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
     dvec3 y = lamp.position + lamp.radius * (u * t + v * b);
-    batch.to_point(receiver, x, n, y, no_normal, front, w * h);
+    batch.to_point({receiver, x, n}, {y, no_normal}, front, w * h);
   });
 }
 

@@ -3,7 +3,7 @@
 
 #include "radiosity/scene.h"
 #include "shot.h"
-#include "visibility.h"
+#include "occlusion_batch.h"
 
 namespace radiosity {
 

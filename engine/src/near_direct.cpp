@@ -9,18 +9,17 @@
 // what interpolation gave it. One bounce of the difference, which the rest of the scene does not
 // see again, worked out only for the points asked for.
 //
-// Checked (test_module.py): a box's foot where its shadow edge starts gets the floor's light
-// through the lit wedge's form factor within 3% at three floor patch sizes, where interpolation
-// gave 1.3-2.1 times it. Against Cycles, the Cornell box's corners went from 2.77% to 1.64% RMS.
+// test_module.py checks that a box's foot where its shadow edge starts gets the floor's light through
+// the lit wedge's form factor at several floor patch sizes, where interpolation gives up to twice it.
 //
 // With Settings::exact_near_reflected every lit patch near a reported point does so with all it
 // sends: what its shooter's shots sent is taken back, and each piece sends its reflectance times
 // all the light that lands there, every shooter's too. Interpolated, a floor's reflected light
-// under-read the foot of a box on it (the Cornell short box's +x foot 0.1256 against Cycles' 0.140)
-// and a room's concave corners; with it at `high` the samples' corners came 1.44 -> 1.15% RMS from
-// Cycles (Cornell box), 1.12 -> 0.92% (subsurf room), 0.92 / 1.16 / 0.94 -> 0.61 / 1.02 / 0.81%
-// (animated room at frames 1 / 12 / 24; test_cycles_agreement.py).
+// under-reads the foot of a box on it and a room's concave corners (test_cycles_agreement.py
+// measures how near Cycles the samples' corners come).
 #include "solver_impl.h"
+
+#include "gather.h"
 
 #include <algorithm>
 #include <array>
@@ -36,9 +35,8 @@ namespace {
 // A patch's direct light counts as well interpolated when its corners' differ by less than this
 // part of the brightest: a shadow edge across it is a step; falloff away from a lamp is smooth.
 constexpr double kContrast = 0.25;
-// With exact_near_reflected, the same for all their light: at 5% the samples' corners came as near
-// Cycles as with every lit patch (the Cornell box 1.15%, the subsurf room 0.92% at high); at 15%
-// the Cornell room's own corners 2.98% against 2.56%.
+// With exact_near_reflected, the same for all their light: at 5% the samples' corners come as near
+// Cycles as with every lit patch, at 15% measurably farther.
 constexpr double kContrastReflected = 0.05;
 
 // Pieces of a cell near the point are split while nearer than this many of their radii, down to
@@ -62,9 +60,9 @@ struct NearDetail {
   dvec3 reflectance{0.0};
   PieceRadiance at_piece;
   // What at_piece worked out, by the bits of its arguments, for the points asked for together:
-  // neighbouring points split a patch into the same pieces away from their own feet (a read of the
-  // rug room's blocks asked 40% of its pieces again, each a gather from every shooter), and the
-  // piece's light is a function of them alone. Emptied after each batch of points.
+  // neighbouring points split a patch into the same pieces away from their own feet (many of them
+  // asked again, each a gather from every shooter), and the piece's light is a function of them
+  // alone. Emptied after each batch of points.
   using Key = std::array<uint64_t, 7>;
   struct KeyHash {
     size_t operator()(const Key& k) const {
@@ -154,8 +152,8 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   // Taken back: what the patch's shots sent (all of it, or the direct light it reflected).
   for (int k = 0; k < 8; ++k)
     corners[k] = !d.step[k % 2] ? dvec3(0.0) : all ? -shot[q][k] : -rho[k / 2] * corners[k];
-  Shot whole = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[patch_shooter[q]], nd.scratch,
-                            settings.samples_indirect, 1.0, settings.near_factor);
+  Shot whole = cluster_shot(shot_scene(), shooters[patch_shooter[q]], nd.scratch, 1.0,
+                            {settings.samples_indirect, settings.near_factor});
   corners.fill(dvec3(0.0));
   // The patch's own cells, as one leaf whose far cells send nothing.
   Shot& leaf = d.interpolated;
@@ -182,8 +180,7 @@ const NearDetail* Solver::Impl::near_detail(int q) const {
   for (auto& corner : d.exact.patches[0].radiance) corner[0] = corner[1] = dvec3(0.0);
   d.reflectance = mean_rho;
   // The reflected light too is split finely: near a box's foot it changes within millimetres as
-  // the direct light does (split as the solver splits, the samples' corners came 0.1-0.4% further
-  // from Cycles than without it).
+  // the direct light does (split only as the solver splits, it is farther from Cycles).
   d.at_piece = [this, &d](const dvec3& y, const dvec3& normal, int side) {
     if (!d.step[side]) return dvec3(0.0);
     NearDetail::Key key;
@@ -209,9 +206,8 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
     near_direct->sources = direct_sources();
     if (settings.exact_near_reflected)
       // At the solve's full sampling. A piece by a box's foot sees the box fill much of its view,
-      // and fewer, larger far samples (each one ray, wholly blocked or not) swung its light: with 4
-      // the test Cornell box's block corners came 16-35% bright at high (0.218 against 0.163), and
-      // at a coarser patch size at default 4% dark with 4 and 3.6% bright with 8.
+      // and fewer, larger far samples (each one ray, wholly blocked or not) swing its light by
+      // tens of percent.
       near_direct->reflected = patch_sources(shot, true, settings.samples_indirect, 1.0, nullptr);
     CornerUnshot none;
     none.fill(dvec3(0.0));
@@ -307,7 +303,7 @@ void Solver::Impl::keep_near_direct(const std::vector<int>& objects, const std::
   // for round-off (the solver's direct light is the difference of two sums that reflected light
   // adds to alike). The world's light is let pass: every sky ray may cross the object, and past
   // the points near it (below) what it takes is a smooth part of the sky, which interpolation
-  // between corners holds (kept against worked out anew: within 2e-5, test_dynamic.py).
+  // between corners holds (test_dynamic.py compares it kept against worked out anew).
   std::unordered_map<int, bool> stale;
   auto patch_stale = [&](int q) {
     auto [it, fresh] = stale.try_emplace(q, false);

@@ -161,22 +161,22 @@ void place_points(PatchMesh& pm, const dvec3* corner_normal, int first_slot, int
     // Where the surface is convex the patch centres lie below the tangent plane: a point moved
     // towards them would sit inside the tessellated surface, shadowed by itself, so it moves
     // along the plane. Where it is concave, moved along the plane a point whose patches lie to
-    // one side of it (a T-junction; wide faces beside narrow ones) went behind their facets and
-    // gathered nothing: it moves towards them, into the open.
+    // one side of it (a T-junction; wide faces beside narrow ones) would go behind their facets and
+    // gather nothing: it moves towards them, into the open.
     dvec3 towards = centre_sum / double(count) - rp.position;
     // A point holding faces that lie opposite each other round its vertex, beside another point's
-    // (a fold between flat faces: the diagonal pair of four), went nowhere: on the other faces'
-    // corners, where Lambert's formula is round-off, it took them for its whole sky (1.5 times
-    // the light). It goes into one of its own faces.
+    // (a fold between flat faces: the diagonal pair of four), would go nowhere: on the other faces'
+    // corners, where Lambert's formula is round-off, it would take them for its whole sky. It goes
+    // into one of its own faces.
     bool shared = (p > begin && vertex_of_point(pm, p - 1) == vertex_of_point(pm, p)) ||
                   (p + 1 < end && vertex_of_point(pm, p + 1) == vertex_of_point(pm, p));
     if (shared && glm::length(towards) < 0.25 * reach / count) towards = first_centre - rp.position;
     double rise = glm::dot(towards, rp.normal);
     rp.position += kInwardNudge * (rise > 0 ? towards : towards - rise * rp.normal);
     // Embree traces a quad as the triangles (v0, v1, v3) and (v2, v3, v1). Where the quad is not
-    // planar, the way to the patch centres can pass under them: a quad with one corner raised put
-    // the corners of the other diagonal under the triangle beside them, and every ray they sent hit
-    // it (black corners). The point comes up onto them along its normal.
+    // planar, the way to the patch centres can pass under them: a quad with one corner raised puts
+    // the corners of the other diagonal under the triangle beside them, where every ray they send
+    // would hit it (black corners). The point comes up onto them along its normal.
     double up = 0.0;
     for (int i = pm.point_slot_begin[p]; i < pm.point_slot_begin[p + 1]; ++i) {
       const Patch& patch = pm.patches[pm.point_slots[i] / 4];

@@ -49,7 +49,7 @@ struct ObjectPatches {
   // A closed surface (every edge of the input mesh shared by two faces, wound alike): the side of
   // its patches that faces its inside (0 front, 1 back), else -1; and a sphere round it. Nothing
   // outside the sphere lights that side, nor is lit from it: gathers skip those rays
-  // (shot.cpp: gather; lamps and sky, lights.cpp), which its own surface would block.
+  // (gather.cpp; lamps and sky, lights.cpp), which its own surface would block.
   int enclosed_side = -1;
   Sphere enclosure;
   bool mirrored = false;  // transform flips handedness

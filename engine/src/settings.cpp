@@ -37,11 +37,9 @@ Settings Settings::preset(const std::string& name) {
     s.samples_indirect = 32;
     s.patch_size_relative = 1.0 / 64.0;
     s.threshold = 5e-4;
-    // A box's foot takes the floor's reflected light where it lands: against the corners' limit
-    // value (trace_corner.py) 0.47 / 0.52% on the Cornell box and the animated room at frame 12
-    // where it was 1.00 / 0.87%, for 7-11 s a read on the samples (a fifth to two fifths of a
-    // bake); up to twice a solve's time where many corners stand beside surfaces whose light
-    // varies (a rug room).
+    // A box's foot takes the floor's reflected light where it lands, which halves its corners'
+    // distance from their limit value (trace_corner.py), for a read that costs up to twice a
+    // solve where many corners stand beside surfaces whose light varies.
     s.exact_near_reflected = true;
   } else if (name == "reference") {
     s.samples_direct = 1024;

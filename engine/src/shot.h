@@ -1,4 +1,4 @@
-// One shot of progressive refinement: what a shooter sends, and how a receiving point gathers it.
+// One shot of progressive refinement: what a shooter sends (gather.h: how a receiving point takes it).
 //
 // A shot is a small hierarchy: the shooter's clusters, each with its mean unshot radiance per side,
 // and at the bottom the m x n micro-elements (cells) of its patches. Far from the receiver a flat
@@ -44,6 +44,23 @@ struct ShotPatch {
   double own_view[4][2] = {};
 };
 
+inline bool is_zero(const dvec3& v) { return v.x == 0 && v.y == 0 && v.z == 0; }
+
+// Radiance a patch sends from side `side` at (u, v), interpolated over the corners in `corners`
+// (a bit each) alone. Inline: near cells ask it once a piece, and a call
+// would run in the baseline ISA (dispatch.h).
+inline dvec3 radiance_at(const ShotPatch& patch, int side, uint8_t corners, double u, double v) {
+  double weight[4] = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
+  dvec3 sum(0.0);
+  double total = 0.0;
+  for (int c = 0; c < 4; ++c) {
+    if (!(corners & (1 << c))) continue;
+    sum += weight[c] * patch.radiance[c][side];
+    total += weight[c];
+  }
+  return total > 0 ? sum / total : dvec3(0.0);
+}
+
 struct ShotCell {
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // at the centre, from the corners it sees; front, back
   int patch = 0;                                 // in Shot::patches
@@ -67,8 +84,8 @@ struct ShotElement {
   double anchor_lift = 0.0;  // ClusterNode::aim_lift
   int anchor_under_patch = -1;  // as ShotPatch::under_patch, for the anchor's patch
   dvec3 radiance[2] = {dvec3(0.0), dvec3(0.0)};  // mean unshot per side, over what the anchor sees
-  // ClusterNode::planar. On a wall or floor, a receiver's walk reached the patches round it in its
-  // own plane and split them finely, for rays that came to nothing.
+  // ClusterNode::planar: a receiver's walk passes it over when it sees it edge-on, as a point on a
+  // wall or floor sees the patches round it in its own plane, which would send it nothing.
   bool planar = false;
 };
 
@@ -115,13 +132,29 @@ struct ShotCache {
   void forget(const std::vector<int>& patches, int node_begin, int node_end);
 };
 
-// The shot of cluster `node`, sending `scale` times its patches' unshot radiance. With `vis`, a
-// sample's radiance comes only from the corners / patches it sees (no light leaks under walls).
-// `far_samples` (fewer than `samples`) starts receivers at fewer, larger clusters: a distant
-// receiver takes that many samples, a near one descends to the same cells as at `samples`.
-Shot cluster_shot(const PatchMesh& mesh, const ClusterTree& tree, const Visibility* vis, ShotCache* cache,
-                  int node, const std::vector<CornerUnshot>& unshot, int samples, double scale, double near_factor,
-                  int far_samples = INT32_MAX);
+// What shots are made of: the patches, their clusters and, with `vis`, what a shot's samples see of
+// their own shooter (kept in `cache`, if given).
+struct ShotScene {
+  const PatchMesh& mesh;
+  const ClusterTree& tree;
+  const Visibility* vis = nullptr;
+  ShotCache* cache = nullptr;
+};
+
+// How finely a shot samples its shooter. `far_samples` (fewer than `samples`) starts receivers at
+// fewer, larger clusters: a distant receiver takes that many samples, a near one descends to the
+// same cells as at `samples`. A flat cluster farther than `near_factor` radii is one sample.
+struct ShotSampling {
+  int samples;
+  double near_factor;
+  int far_samples = INT32_MAX;
+};
+
+// The shot of cluster `node`, sending `scale` times its patches' `unshot` radiance. With a
+// Visibility, a sample's radiance comes only from the corners / patches it sees (no light leaks
+// under walls).
+Shot cluster_shot(const ShotScene& scene, int node, const std::vector<CornerUnshot>& unshot, double scale,
+                  const ShotSampling& sampling);
 
 // Appends `patch` and its k x k `cells` (in bilinear_cells' order) to the shot. A cell is lit, per
 // side, by the patch corners its centre sees: `seen[side]` holds a bit per corner for each cell, or
@@ -141,10 +174,5 @@ Shot scaled(Shot shot, double scale);
 // each twice (as before, negative, and as after), and the clusters' change of radiance. None if
 // they differ otherwise.
 std::optional<Shot> difference(const Shot& after, const Shot& before);
-
-// Adds to the batch the rays carrying the shot's irradiance to receiving point `receiver`; with
-// `zone`, only those that may pass through it (whole clusters and cells are passed over).
-void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch,
-            const Zone* zone = nullptr);
 
 }  // namespace radiosity

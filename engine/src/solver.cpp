@@ -4,6 +4,7 @@
 
 #include "coincident_patches.h"
 #include "dispatch.h"
+#include "gather.h"
 
 #include <algorithm>
 #include <chrono>
@@ -29,16 +30,12 @@ constexpr double kDiverged = 10.0;  // growth of the residual past which shootin
 // Residual, in thresholds, below which an update shoots without over-relaxation (relaxation()).
 constexpr double kRelaxAbove = 2.0;
 // Automatic over-relaxation (Settings::relaxation 0): the first kMeasuredShots shots, at 1.0, measure
-// the share of their light that comes back to be shot again, and the relaxation follows it. The best
-// relaxation grew with that share (0.05 for 400 boxes on a 40 m floor in the sun, 0.47 for the
-// Cornell box, 0.6-0.65 for the sample rooms). Solve time against the relaxation, at default: the
-// boxes 7.46 s at 1.0, 7.32 at 1.1, 9.95 at 1.3; the Cornell box 1.55 / 1.17 at 1.15 / 1.59 at 1.3;
-// the subsurf room 3.88 / 2.50 at 1.2 / 2.91 at 1.3; the animated room's frame 12 4.86 / 3.23 at
-// 1.2 / 3.64 at 1.3; draft's best lay at 1.15 for all three rooms, 1.0 for the boxes. The error
-// against Cycles did not move with it.
+// the share of their light that comes back to be shot again, and the relaxation follows it: the
+// best relaxation grows with that share, from 1.0 for boxes in the sun (little comes back) to about
+// 1.2 for closed rooms, and the error against Cycles does not depend on it.
 // Each propagate measures anew. An update's light is signed, and light landing on light of the
-// other sign cancels, which the measure (of |unshot|) counts as not come back, rightly: shooting on
-// at the solve's value instead took 9-20% more rays an update in the dynamic bench's scenes (draft).
+// other sign cancels, which the measure (of |unshot|) rightly counts as not come back: an update
+// shooting on at the solve's value takes more rays.
 constexpr int kMeasuredShots = 8;
 double relaxation_for(double returned) { return 1.0 + 0.3 * std::clamp(returned, 0.0, 1.0); }
 
@@ -154,8 +151,7 @@ std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>&
     for (int i = n.begin; i < n.end && !any; ++i)
       for (const dvec3& v : radiance[tree.order[i]]) any |= abs_sum(v) > 0;
     if (!any) continue;
-    Shot shot =
-        cluster_shot(mesh, tree, vis.get(), &shot_cache, node, radiance, samples, scale, settings.near_factor, far_samples);
+    Shot shot = cluster_shot(shot_scene(), node, radiance, scale, {samples, settings.near_factor, far_samples});
     shot.reflected = reflected;
     out.push_back(shot_source(std::move(shot), int(s), {n.centroid, n.radius}));
   }
@@ -228,7 +224,7 @@ double Solver::Impl::total_unshot_power() const {
 // given cost where it cuts the summed error most), full for a shot of kFullSamplesAbove times the
 // light the threshold leaves unshot: a tighter threshold keeps more shots at full samples. Updates
 // shoot at full samples: every shot of a shooter then goes through the same transfer, so a move
-// and its undo cancel exactly (with counts that follow the power, 1,000 move/undo cycles drifted 7%).
+// and its undo cancel exactly (with counts that follow the power, move/undo cycles drift).
 int Solver::Impl::far_samples(double power, Sampling sampling) const {
   double full = kFullSamplesAbove * settings.threshold * reference_power;
   if (sampling == Sampling::full || !(full > 0) || !(power < full)) return settings.samples_indirect;
@@ -236,22 +232,21 @@ int Solver::Impl::far_samples(double power, Sampling sampling) const {
 }
 
 // Over-relaxation pays where much light has many bounces to go: a solve, or an update that lit or
-// darkened the scene at large (a lamp, an emitter appearing: 1.0 took up to twice the shots). An
-// update that left the residual just past the threshold (a small object moved) has a little
-// signed light near the change to clear; shooting 1.3 times it left 0.3 of it behind, negative,
-// in each shooter, for more shots: 27 an update in the 10k room against 16 (draft), as close to a
-// fresh solve (0.19% RMS against 0.22%).
+// darkened the scene at large (a lamp, an emitter appearing: without, up to twice the shots). An
+// update that leaves the residual just past the threshold (a small object moved) has a little
+// signed light near the change to clear; shooting 1.3 times it would leave 0.3 of it behind,
+// negative, in each shooter, for more shots and no closer to a fresh solve.
 double Solver::Impl::relaxation(Sampling sampling, double residual) const {
   return sampling == Sampling::full && residual < kRelaxAbove * settings.threshold ? 1.0 : settings.relaxation;
 }
 
 bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, double omega) {
-  Shot sent = cluster_shot(mesh, tree, vis.get(), &shot_cache, shooters[s], unshot, settings.samples_indirect,
-                           omega, settings.near_factor, far_samples(power[s], sampling));
+  Shot sent = cluster_shot(shot_scene(), shooters[s], unshot, omega,
+                           {settings.samples_indirect, settings.near_factor, far_samples(power[s], sampling)});
   sent.reflected = true;
   patch_power.resize(mesh.patches.size());
-  // The delta is applied on every core the gather ran on, after one barrier: on one thread it was a
-  // tenth of a draft shot's time on two.
+  // The delta is applied on every core the gather ran on, after one barrier: on one thread it would
+  // be a tenth of a draft shot's time on two.
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }, true,
                   [&] { absorb_delta(s, omega, Light::reflected); }))
@@ -265,8 +260,7 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, d
 // Two boxes standing in each other on a floor do so: inside them, the floor and both boxes' bottoms
 // lie in one plane facing up, and a point there sees all three (rays end short of the plane they
 // aim at), where Cycles' rays stop at the first; light that leaks in where a patch runs through the
-// other box's wall then grows as it goes round (4 m floor, two 0.3 m boxes 8 cm apart, a 1e-6
-// threshold; and 400 random boxes on a 40 m floor at the default threshold, one pair of them).
+// other box's wall then grows as it goes round.
 std::string Solver::Impl::holders_of() const {
   std::vector<double> held(scene.meshes.size(), 0.0);
   for (size_t p = 0; p < mesh.patches.size(); ++p) held[mesh.patches[p].object] += patch_power[p];
@@ -306,7 +300,7 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     // Reflectance below one lets shooting only shrink the unshot light, but for what over-relaxation
     // overshoots. It grows where the rays' offset (a 1e-5 part of the scene's size) is not small
     // against the patches: points of a tiny crumpled object far from the rest then see each other
-    // with no ray between, and without this stop the solve ran to inf and NaN.
+    // with no ray between, and without this stop the solve runs to inf and NaN.
     if (limit == 0) limit = kDiverged * std::max(1.0, stats.residual);
     if (omega == 0) {
       omega = relaxation(sampling, stats.residual);

@@ -11,8 +11,11 @@
 
 #include "radiosity/solver.h"
 
+#include "changed_rays.h"
 #include "cluster_tree.h"
+#include "db_cache.h"
 #include "patch_mesh.h"
+#include "occlusion_batch.h"
 #include "shot.h"
 #include "source.h"
 #include "visibility.h"
@@ -47,6 +50,7 @@ struct Solver::Impl {
   // and after add().
   void fit_to_mesh(int first_object);
   mutable ShotCache shot_cache;  // filled as shots are built
+  ShotScene shot_scene() const { return {mesh, tree, vis.get(), &shot_cache}; }
   DbCache db_cache;              // of the object that moved last (dynamic_update.cpp)
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
@@ -91,9 +95,9 @@ struct Solver::Impl {
   }
   // A batch adding into delta_*.
   OcclusionBatch delta_batch() { return OcclusionBatch(*vis, delta_front.data(), delta_back.data()); }
-  // One adding only what the last move of `changed_object`, within `zone`, changed.
-  OcclusionBatch changed_batch(int changed_object, const Zone& zone) {
-    return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed_object, zone, db_cache);
+  // One adding only what the last move of an object changed.
+  OcclusionBatch changed_batch(const ChangedRays& changed) {
+    return OcclusionBatch(*vis, delta_front.data(), delta_back.data(), changed);
   }
   // Adds the gathered delta, of one kind of light, to the solution and, reflected, to the unshot
   // radiance.
@@ -148,6 +152,20 @@ struct Solver::Impl {
   bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
   void change_material(int index, const Material& material);
   Zone change_object(int object, const MeshDesc& mesh, const PlacedObject& placed);  // where it was and is
+  // change_object's steps, in their order, on what they share.
+  struct ObjectChange;
+  // Where the object was and will be, and the shooters near either place.
+  ObjectChange begin_change(int object, const MeshDesc& mesh, const PlacedObject& placed);
+  void take_back_sent(ObjectChange& change);       // what its shooters sent, from everywhere else
+  void keep_sources_before(ObjectChange& change);  // every source as it shoots before the move
+  void move(ObjectChange& change);                 // its geometry, and the shots' caches near it
+  void send_again(ObjectChange& change);           // its shooters' light and the near ones' change
+  void gather_changed_rays(ObjectChange& change);  // the rest: only the rays the move changed
+  void gather_on_object(ObjectChange& change);     // its own points: all their light anew
+  bool shoots_from(int object, int node) const;    // the cluster node's patches are the object's
+  void flag_shooters(ObjectChange& change) const;  // `own` and `near` for the cut as it is
+  void emit_own(const ObjectChange& change, double sign);  // its emission, elsewhere
+  double direct_on_own(const ObjectChange& change);        // gathered on its points; landed_power
   std::vector<char> touched;  // per point: its light was recomputed by this update
   void place(int object, const MeshDesc& mesh, const PlacedObject& placed);  // geometry only
   void forget_nodes(int node);  // the cached views of itself of the subtree from `node`
@@ -204,8 +222,8 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
     batch.flush();
     rays += batch.rays_traced();
     // Cleared by whichever thread is done gathering first, while the other finishes: on one thread
-    // before the region it was 29% of a draft solve's serial work (callgrind), and a barrier of its
-    // own would cost a time slice under load.
+    // before the region it would be a large part of a draft solve's serial work, and a barrier of
+    // its own would cost a time slice under load.
 #pragma omp for schedule(dynamic, 1024) nowait
     for (int i = 0; i < int(spare_front.size()); ++i) spare_front[i] = spare_back[i] = dvec3(0.0);
     if constexpr (!std::is_same_v<std::decay_t<Then>, Nothing>) {

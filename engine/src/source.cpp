@@ -1,5 +1,7 @@
 #include "source.h"
 
+#include "gather.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -41,7 +43,7 @@ bool Source::may_reach(const Sphere& receivers, const Zone& zone) const {
   const dvec3& x = receivers.centre;
   double grow = receivers.radius;
   // Asked about each receiving point (grow 0) of each pair a gather takes: the zone as it is, whose
-  // enclosing sphere, worked out anew, cost a square root and a division each time.
+  // enclosing sphere, worked out anew, would cost a square root and a division each time.
   Zone grown = grow == 0 ? zone
                          : Zone{{zone.before.centre, zone.before.radius + grow}, {zone.after.centre, zone.after.radius + grow}};
   if (kind == Kind::Lamp && lamp.type == Lamp::Type::Sun)

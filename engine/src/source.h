@@ -5,6 +5,7 @@
 
 #include "bounds.h"
 #include "lights.h"
+#include "occlusion_batch.h"
 #include "shot.h"
 
 namespace radiosity {

@@ -7,8 +7,6 @@
 #include <cmath>
 #include <stdexcept>
 
-#include <smmintrin.h>
-
 namespace radiosity {
 
 namespace {
@@ -299,116 +297,6 @@ bool Visibility::connected(const dvec3& a, const dvec3& na, const dvec3& b, cons
     return ray.tfar >= 0;
   };
   return clear(bulge, bulge) || (bulge > lift_a && clear(lift_a, 0.0));
-}
-
-void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
-                                 const dvec3& irradiance) {
-  double eps = vis_.epsilon();
-  push(&sum(receiver, front), x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, share_[!front] * irradiance);
-}
-
-void OcclusionBatch::through(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& m, bool front,
-                             const dvec3& irradiance, double lift, int under_patch) {
-  if (!open(front)) return;
-  double eps = vis_.epsilon();
-  dvec3 origin, dir;
-  segment_ends(x, n, y, m, eps, lift, origin, dir);
-  if (glm::dot(dir, dir) <= 4 * eps * eps) return segment(receiver, origin, dir, front, irradiance);
-  // As far past y as an ordinary segment ends short of it; the zone starts where that one stops.
-  dvec3 short_end = origin + dir;
-  dvec3 past = 2.0 * y - short_end - origin;
-  double length = glm::length(past);
-  double zone = (glm::dot(dir, past) / length - eps) / length;
-  push(&sum(receiver, front), origin, past, kThrough, share_[!front] * irradiance, under_patch, float(zone));
-}
-
-unsigned OcclusionBatch::keep_changed() {
-  // A ray the object's sphere of one place does not reach, the object there cannot block: each ray
-  // is traced against the places it passes near, not against both.
-  bool blocked[2][kCapacity];
-  for (int place = 0; place < 2; ++place) {
-    const Sphere& bounds = place == 0 ? zone_->before : zone_->after;
-    RTCRay near[kCapacity];
-    unsigned which[kCapacity], count = 0;
-    for (unsigned i = 0; i < count_; ++i) {
-      const RTCRay& r = rays_[i];
-      blocked[place][i] = false;
-      if (ray_crosses(dvec3(r.org_x, r.org_y, r.org_z), dvec3(r.dir_x, r.dir_y, r.dir_z), r.tfar, bounds))
-        near[count] = r, which[count++] = i;
-    }
-    vis_.occluded_by(changed_object_, place == 0, near, count, coincident());
-    for (unsigned k = 0; k < count; ++k) blocked[place][which[k]] = near[k].tfar < 0;
-    traced_ += count;
-  }
-  unsigned kept = 0;
-  for (unsigned i = 0; i < count_; ++i) {
-    if (blocked[0][i] == blocked[1][i]) continue;
-    double sign = blocked[0][i] ? 1.0 : -1.0;
-    rays_[kept] = rays_[i];
-    into_[kept] = into_[i];
-    carried_[kept] = sign * carried_[i];
-    ++kept;
-  }
-  return kept;
-}
-
-RADIOSITY_HOT void OcclusionBatch::flush() {
-  if (count_ == 0) return;
-  // Each segment stops epsilon short of its end. Worked out here for the whole batch, where the
-  // square roots and divisions of different rays overlap: one ray at a time, between form factors,
-  // their latency was about 6% of a single-threaded solve. Four rays at a time (SSE, in the
-  // baseline ISA too): one at a time the loop waited on the divider, 1.7% of a default solve's
-  // time on one thread (perf). The same operations in the same order as one at a time, so the
-  // same bits.
-  float eps = float(vis_.epsilon());
-  auto shorten = [&](RTCRay& r) {
-    if (r.tfar == kSegment) r.tfar = 1.0f - eps / std::sqrt(r.dir_x * r.dir_x + r.dir_y * r.dir_y + r.dir_z * r.dir_z);
-  };
-  const __m128 one = _mm_set1_ps(1.0f), epsilon = _mm_set1_ps(eps), segment = _mm_set1_ps(kSegment);
-  unsigned i = 0;
-  for (; i + 4 <= count_; i += 4) {
-    RTCRay* r = rays_ + i;
-    __m128 x = _mm_setr_ps(r[0].dir_x, r[1].dir_x, r[2].dir_x, r[3].dir_x);
-    __m128 y = _mm_setr_ps(r[0].dir_y, r[1].dir_y, r[2].dir_y, r[3].dir_y);
-    __m128 z = _mm_setr_ps(r[0].dir_z, r[1].dir_z, r[2].dir_z, r[3].dir_z);
-    __m128 tfar = _mm_setr_ps(r[0].tfar, r[1].tfar, r[2].tfar, r[3].tfar);
-    __m128 length = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
-    __m128 shortened = _mm_sub_ps(one, _mm_div_ps(epsilon, length));
-    alignas(16) float out[4];
-    _mm_store_ps(out, _mm_blendv_ps(tfar, shortened, _mm_cmpeq_ps(tfar, segment)));
-    for (int l = 0; l < 4; ++l) r[l].tfar = out[l];
-  }
-  for (; i < count_; ++i) shorten(rays_[i]);
-  unsigned pushed = count_;
-  if (changed_object_ >= 0) {
-    count_ = keep_changed();
-    traced_ += trace_without();
-  } else {
-    vis_.occluded(rays_, count_, coincident());
-    traced_ += count_;
-  }
-  for (unsigned i = 0; i < count_; ++i)
-    if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
-  count_ = 0;
-  if (changed_object_ >= 0)  // keep_changed moved rays to other slots: each gets its slot's id back
-    for (unsigned k = 0; k < pushed; ++k) rays_[k].id = k;
-  if (coincident_) std::fill(target_, target_ + pushed, -1), coincident_ = false;
-}
-
-unsigned OcclusionBatch::trace_without() {
-  DbCache::Answer known[kCapacity];
-  db_->find(rays_, count_, known);
-  RTCRay missed[kCapacity];
-  unsigned where[kCapacity], misses = 0;
-  for (unsigned i = 0; i < count_; ++i) switch (known[i]) {
-      case DbCache::unknown: missed[misses] = rays_[i], where[misses++] = i; break;
-      case DbCache::blocked: rays_[i].tfar = -INFINITY; break;
-      case DbCache::clear: break;
-    }
-  vis_.occluded_without(changed_object_, missed, misses, coincident());
-  if (count_ > 0) db_->stage(rays_, where, missed, misses, count_ - misses);
-  for (unsigned k = 0; k < misses; ++k) rays_[where[k]].tfar = missed[k].tfar;
-  return misses;
 }
 
 }  // namespace radiosity

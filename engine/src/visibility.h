@@ -3,7 +3,6 @@
 #pragma once
 
 #include "bounds.h"
-#include "db_cache.h"
 #include "patch_mesh.h"
 #include "radiosity/form_factor.h"
 #include "radiosity/lanes.h"
@@ -11,7 +10,6 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
-#include <iterator>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -53,9 +51,9 @@ RADIOSITY_LANES void segment_ends(const V& x, const V& n, const V& y, const V& m
 // end's plane, and a hit near its end blocks it only on an object of lower index than its target's,
 // or, where the target lies on its own object's patches, on a patch of lower index there: of
 // coincident surfaces one is seen, as a ray tracer's first hit sees one. Ending short of the
-// plane, as other rays do, saw all of them: a box's inside saw the floor and its own bottom, two
-// boxes standing in each other saw the floor three times and their tops twice, and reflected more
-// than they took in (the solve diverged). Same-object patches block only where the target needs it:
+// plane, as other rays do, they would see all of them: a box's inside the floor and its own
+// bottom, two boxes standing in each other the floor three times and their tops twice, reflecting
+// more than they take in (the solve diverges). Same-object patches block only where the target needs it:
 // a ray to a patch corner would be stopped by the patches that share it. Per ray id: the target's
 // object (-1: an ordinary ray), its patch (-1: its own object's patches do not block), and the ray
 // parameter where its end's zone starts.
@@ -150,131 +148,6 @@ class Visibility {
     std::vector<std::vector<RTCRay>> batches_kept;
   };
   std::unique_ptr<Recording> recording_;
-};
-
-// Collects occlusion rays with the irradiance each carries to one side of a receiving point, traces them in
-// streams and adds what arrives unoccluded to the receivers' accumulators (front and back side).
-//
-// With `changed_object`, a batch carries only what that object's last move changed: a ray counts
-// with + if the object blocked it before and not now, - if the reverse, and only if nothing else
-// blocks it; a ray the object blocks both times, or neither, costs no trace of the full scene, and
-// one that passes through neither of the object's bounding spheres (`zone`) no trace at all. What
-// else blocks a changed ray comes from the dB cache when it knows, else from a trace it is offered.
-class OcclusionBatch {
- public:
-  // The accumulators hold receivers from `first_receiver` on: points that are not receiving points
-  // (pieces of a patch) gather under indices past the last one, into arrays of their own.
-  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int first_receiver = 0)
-      : vis_(vis), front_(front), back_(back), first_(first_receiver) {
-    // Tracing changes only tfar: the fields every ray shares are written once, not once a ray. A
-    // ray's id is its slot, where its Coincident data is.
-    for (unsigned i = 0; i < kCapacity; ++i) rays_[i] = make_ray(dvec3(0.0), dvec3(0.0), 0.0f), rays_[i].id = i;
-    std::fill(std::begin(target_), std::end(target_), -1);
-  }
-  OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, int changed_object, const Zone& zone,
-                 DbCache& db)
-      : OcclusionBatch(vis, front, back) {
-    changed_object_ = changed_object;
-    zone_ = &zone;
-    db_ = &db;
-  }
-  ~OcclusionBatch() { flush(); }
-  OcclusionBatch(const OcclusionBatch&) = delete;  // coincident_rays_ points into it
-  OcclusionBatch& operator=(const OcclusionBatch&) = delete;
-
-  // Segment from receiver point x (normal n) to target y, carrying `irradiance` to the receiver's
-  // front or back side; y is pulled off its own surface along target_normal, towards x, by epsilon
-  // plus `lift` (how far that surface may lie off the traced one). Forced inline: it runs once per
-  // ray, between the form factors; called, it ran in the baseline ISA (dispatch.h), recomputed what
-  // its caller had already worked out (a cell's offset and both heights) and took eight arguments.
-  // With `under_patch`, y lies on that patch, which may lie under another surface
-  // (Visibility::may_lie_under), and the segment is traced as Coincident says.
-  __attribute__((always_inline)) void to_point(int receiver, const dvec3& x, const dvec3& n, const dvec3& y,
-                                               const dvec3& target_normal, bool front, const dvec3& irradiance,
-                                               double lift = 0.0, int under_patch = -1) {
-    if (under_patch >= 0) return through(receiver, x, n, y, target_normal, front, irradiance, lift, under_patch);
-    dvec3 origin, dir;
-    segment_ends(x, n, y, target_normal, vis_.epsilon(), lift, origin, dir);
-    segment(receiver, origin, dir, front, irradiance);
-  }
-  // The same, for a segment whose ends segment_ends worked out (gather does so four at a time).
-  __attribute__((always_inline)) void segment(int receiver, const dvec3& origin, const dvec3& dir, bool front,
-                                              const dvec3& irradiance) {
-    if (!open(front)) return;
-    double eps = vis_.epsilon();
-    if (glm::dot(dir, dir) <= 4 * eps * eps) {  // touching: nothing fits (nor moves) in between
-      if (changed_object_ < 0) sum(receiver, front) += share_[!front] * irradiance;
-      return;
-    }
-    push(&sum(receiver, front), origin, dir, kSegment, share_[!front] * irradiance);
-  }
-  // Light that reaches the receiver without a ray (CornerView::own), not scaled by the share.
-  void add(int receiver, bool front, const dvec3& irradiance) {
-    if (changed_object_ < 0) sum(receiver, front) += irradiance;
-  }
-  // The part of what is sent from now on that the receivers take, per side (ReceiverPoint::reflected_share).
-  void set_share(const std::array<double, 2>& share) { share_ = share; }
-  // Whether the receivers' front / back sides take what is sent from now on (shot.cpp: gather).
-  void set_open(const std::array<bool, 2>& open) { open_ = open; }
-  bool open(bool front) const { return open_[!front]; }
-  // Ray from x to infinity along dir (sun, sky).
-  void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
-                   const dvec3& irradiance);
-  void flush();
-  const Visibility& visibility() const { return vis_; }
-  long long rays_traced() const { return traced_; }
-  long long rays_pushed() const { return pushed_; }
-
- private:
-  // A segment is pushed with tfar = kSegment; flush() shortens it to stop epsilon before its end.
-  static constexpr float kSegment = 1.0f;
-  // A segment traced through its end's plane (Coincident) is not shortened.
-  static constexpr float kThrough = 0.99999994f;
-
-  void through(int receiver, const dvec3& x, const dvec3& n, const dvec3& y, const dvec3& target_normal, bool front,
-               const dvec3& irradiance, double lift, int under_patch);
-
-  dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver - first_]; }
-  __attribute__((always_inline)) void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance,
-                                           int under_patch = -1, float zone_start = 0.0f) {
-    ++pushed_;
-    if (zone_ && !zone_->crossed_by(origin, dir, tfar)) return;
-    if (under_patch >= 0) {
-      target_[count_] = vis_.object_of_patch(under_patch);
-      target_patch_[count_] = vis_.lies_on_own(under_patch) ? under_patch : -1;
-      zone_start_[count_] = zone_start, coincident_ = true;
-    }
-    aim(rays_[count_], origin, dir, tfar);
-    into_[count_] = into;
-    carried_[count_] = irradiance;
-    if (++count_ == kCapacity) flush();
-  }
-  unsigned keep_changed();  // leaves the rays the changed object's move made a difference to
-  unsigned trace_without();  // occluded_without for the kept rays, through the dB cache; returns rays traced
-  const Coincident* coincident() const { return coincident_ ? &coincident_rays_ : nullptr; }
-
-  static constexpr unsigned kCapacity = 256;
-  const Visibility& vis_;
-  dvec3* front_;
-  dvec3* back_;
-  int changed_object_ = -1;
-  const Zone* zone_ = nullptr;
-  DbCache* db_ = nullptr;
-  int first_ = 0;
-  std::array<double, 2> share_{1.0, 1.0};
-  std::array<bool, 2> open_{true, true};
-  RTCRay rays_[kCapacity];
-  dvec3* into_[kCapacity];  // the accumulator (receiver and side) each ray adds to
-  dvec3 carried_[kCapacity];
-  // Per slot (ray id): Coincident's data; -1 at rest, set by push for the few rays that need it.
-  int target_[kCapacity];
-  int target_patch_[kCapacity];
-  float zone_start_[kCapacity];
-  bool coincident_ = false;  // some ray of the batch has them
-  const Coincident coincident_rays_{target_, target_patch_, zone_start_};
-  unsigned count_ = 0;
-  long long traced_ = 0;
-  long long pushed_ = 0;
 };
 
 }  // namespace radiosity

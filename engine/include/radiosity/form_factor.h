@@ -106,7 +106,7 @@ RADIOSITY_LANES auto clear_of_plane(const V& n, const V& normal, R f, R reach) {
 // point kernel expanded to second order about the cell's centroid: error O((radius / distance)^4)
 // of A / (pi r^2) (third order for cells without central symmetry), for a fraction of Lambert's cost.
 // Nothing when the expansion does not hold there. Forced inline: it runs for most cells a receiver
-// visits, and GCC left it out of line (in the baseline ISA, dispatch.h) once gather grew.
+// visits, and GCC's heuristics leave it out of line (in the baseline ISA, dispatch.h).
 __attribute__((always_inline)) inline std::optional<double> distant_cell_form_factor(const Cell& cell, const dvec3& x, const dvec3& n) {
   // Beyond this many radii the error is below 2e-4 of A / (pi r^2), and over a whole view it
   // partly cancels: a furnace at rho = 0.99 stays within its 0.1%.

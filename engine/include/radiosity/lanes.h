@@ -17,8 +17,8 @@ using Lanes = double __attribute__((vector_size(kLanes * sizeof(double))));
 // What comparing two Lanes gives: all ones in the lanes where it holds.
 using LaneMask = std::int64_t __attribute__((vector_size(kLanes * sizeof(double))));
 // Structs of Lanes kept in memory are aligned to a Lanes' size by hand: outside AVX code GCC
-// aligns a Lanes to 16 bytes only, and memory the baseline code allocated for them broke the AVX2
-// clones' aligned loads. (On the type itself the alignment would be dropped where it is a
+// aligns a Lanes to 16 bytes only, and memory the baseline code allocates for them would break the
+// AVX2 clones' aligned loads. (On the type itself the alignment would be dropped where it is a
 // template argument.)
 constexpr std::size_t kLanesAlignment = sizeof(Lanes);
 

@@ -18,8 +18,8 @@ struct Settings {
   // (coarse shooters, fine receivers): their number does not grow with the receiver count.
   double shooter_size_relative = 1.0 / 8.0;
   // A cluster or micro-element closer than near_factor times its radius is split / integrated exactly.
-  // A far cluster's form factor is good to fourth order in radius / distance: a furnace of 6,144
-  // patches at rho 0.9 comes out 0.23% bright at 3, 0.10% at 4, 0.045% at 5 (+2% rays over 3).
+  // A far cluster's form factor is good to fourth order in radius / distance: at 5 a furnace at rho
+  // 0.9 comes out within 0.05%, for 2% more rays than at 3.
   double near_factor = 5.0;
   double threshold = 1e-3;   // stop when unshot power / injected power falls below this
   // Over-relaxation of reflected shots: 1 = plain progressive refinement; 0 = automatic, from the
@@ -30,22 +30,21 @@ struct Settings {
   bool exact_near_direct = true;
   // With it, the light those surroundings reflect is evaluated where it lands as a whole, the
   // reflected light too (each piece gathers every shooter's light; near_direct.cpp): interpolated,
-  // a floor's light under-read the foot of a box on it by 10%, a room's concave corners by 1-3%.
-  // It costs about 30 ms a reported point near patches whose light varies at draft (a read of a
-  // room with a rug: 15-17 s against 0.8 s), more at the finer sampling of `high` (110 s against
-  // 5 s after a 45 s solve), so only `high` and `reference` have it. An update works all of it out anew.
+  // a floor's light under-reads the foot of a box on it by up to 10%, a room's concave corners by
+  // 1-3%. It costs tens of ms a reported point near patches whose light varies, a read many times a
+  // solve's, so only `high` and `reference` have it. An update works all of it out anew.
   bool exact_near_reflected = false;
   long max_shots = 2000000;  // a guard: rho near 1 must end, the residual says how far it got
   // A guard: a scene that would refine to more patches is refused with a message. A solve holds
-  // about 2.3 KB a patch (524k patches: 1.2 GB); a patch size far below the faces' makes many.
+  // about 2.3 KB a patch; a patch size far below the faces' makes many.
   long max_patches = 2000000;
   // Memory for the dB cache (db_cache.h), in MB: what the scene without a moving object does to the
   // rays its moves change, so that a move back traces them no more. Full, it starts over, and rays
-  // it no longer holds are traced again: the same results. 0: no cache. About 20 bytes a ray.
+  // it does not hold are traced again: the same results. 0: no cache. About 20 bytes a ray.
   double db_cache_mb = 256.0;
 
-  // std::invalid_argument naming the first knob out of its range: a threshold of 0 ran two million
-  // shots, a relaxation of 2.5 diverged under a message blaming the faces.
+  // std::invalid_argument naming the first knob out of its range: a threshold of 0 would run
+  // max_shots shots, a relaxation of 2.5 diverge under a message blaming the faces.
   void validate() const;
 
   static Settings preset(const std::string& name);  // draft, default, high, reference

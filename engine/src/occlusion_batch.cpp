@@ -1,0 +1,72 @@
+#include "occlusion_batch.h"
+
+#include "dispatch.h"
+
+#include <cmath>
+
+#include <smmintrin.h>
+
+namespace radiosity {
+
+void OcclusionBatch::to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
+                                 const dvec3& irradiance) {
+  double eps = vis_.epsilon();
+  push(&sum(receiver, front), x + (glm::dot(n, dir) >= 0 ? eps : -eps) * n, dir, INFINITY, share_[!front] * irradiance);
+}
+
+void OcclusionBatch::through(const RayStart& from, const RayEnd& to, bool front, const dvec3& irradiance) {
+  if (!open(front)) return;
+  double eps = vis_.epsilon();
+  const dvec3& y = to.y;
+  dvec3 origin, dir;
+  segment_ends(from.x, from.n, y, to.normal, eps, to.lift, origin, dir);
+  if (glm::dot(dir, dir) <= 4 * eps * eps) return segment(from.receiver, origin, dir, front, irradiance);
+  // As far past y as an ordinary segment ends short of it; the zone starts where that one stops.
+  dvec3 short_end = origin + dir;
+  dvec3 past = 2.0 * y - short_end - origin;
+  double length = glm::length(past);
+  double zone = (glm::dot(dir, past) / length - eps) / length;
+  push(&sum(from.receiver, front), origin, past, kThrough, share_[!front] * irradiance, to.under_patch, float(zone));
+}
+
+RADIOSITY_HOT void OcclusionBatch::flush() {
+  if (count_ == 0) return;
+  // Each segment stops epsilon short of its end. Worked out here for the whole batch, where the
+  // square roots and divisions of different rays overlap rather than wait on each other between
+  // form factors; four rays at a time (SSE, in the baseline ISA too), so that the loop does not
+  // wait on the divider. The same operations in the same order as one at a time, so the same bits.
+  float eps = float(vis_.epsilon());
+  auto shorten = [&](RTCRay& r) {
+    if (r.tfar == kSegment) r.tfar = 1.0f - eps / std::sqrt(r.dir_x * r.dir_x + r.dir_y * r.dir_y + r.dir_z * r.dir_z);
+  };
+  const __m128 one = _mm_set1_ps(1.0f), epsilon = _mm_set1_ps(eps), segment = _mm_set1_ps(kSegment);
+  unsigned i = 0;
+  for (; i + 4 <= count_; i += 4) {
+    RTCRay* r = rays_ + i;
+    __m128 x = _mm_setr_ps(r[0].dir_x, r[1].dir_x, r[2].dir_x, r[3].dir_x);
+    __m128 y = _mm_setr_ps(r[0].dir_y, r[1].dir_y, r[2].dir_y, r[3].dir_y);
+    __m128 z = _mm_setr_ps(r[0].dir_z, r[1].dir_z, r[2].dir_z, r[3].dir_z);
+    __m128 tfar = _mm_setr_ps(r[0].tfar, r[1].tfar, r[2].tfar, r[3].tfar);
+    __m128 length = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
+    __m128 shortened = _mm_sub_ps(one, _mm_div_ps(epsilon, length));
+    alignas(16) float out[4];
+    _mm_store_ps(out, _mm_blendv_ps(tfar, shortened, _mm_cmpeq_ps(tfar, segment)));
+    for (int l = 0; l < 4; ++l) r[l].tfar = out[l];
+  }
+  for (; i < count_; ++i) shorten(rays_[i]);
+  unsigned pushed = count_;
+  if (changed_) {
+    count_ = changed_->keep_changed(rays_, into_, carried_, count_, coincident(), traced_);
+  } else {
+    vis_.occluded(rays_, count_, coincident());
+    traced_ += count_;
+  }
+  for (unsigned i = 0; i < count_; ++i)
+    if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
+  count_ = 0;
+  if (changed_)  // keep_changed moved rays to other slots: each gets its slot's id back
+    for (unsigned k = 0; k < pushed; ++k) rays_[k].id = k;
+  if (coincident_) std::fill(target_, target_ + pushed, -1), coincident_ = false;
+}
+
+}  // namespace radiosity
