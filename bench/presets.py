@@ -1,10 +1,11 @@
 """What each quality preset costs on the engine tests' Cornell box (tests/scenes.py), engine only.
 
-    /usr/bin/python3.11 bench/presets.py [preset ...]      (draft and default unless named)
+    [OMP_NUM_THREADS=1] /usr/bin/python3.11 bench/presets.py [preset ...]   (draft and default unless named)
 
 Prints patches, points, shots, rays, residual, time and the floor centre's radiance for each preset,
 and writes them to bench/results/presets.csv and .md. For error against Cycles through the add-on,
-see accuracy_vs_time.py."""
+see accuracy_vs_time.py. On a machine loaded past its cores, both cores' OpenMP threads wait on
+each other and a solve takes many times as long; one thread gives steadier figures."""
 import os
 import sys
 import time
@@ -37,14 +38,15 @@ def main():
             print("  warning:", w)
         rows.append(dict(preset=name, patches=stats["patches"], points=stats["points"], shots=stats["shots"],
                          rays=stats["rays"], residual=f"{stats['residual']:.2e}", seconds=f"{seconds:.3f}",
-                         floor_centre=" ".join(f"{v:.4f}" for v in rad[centre]), load1=f"{os.getloadavg()[0]:.1f}"))
+                         floor_centre=" ".join(f"{v:.4f}" for v in rad[centre]),
+                         threads=os.environ.get("OMP_NUM_THREADS", "all cores"), load1=f"{os.getloadavg()[0]:.1f}"))
     tables.write(tables.path_for("presets"), list(rows[0]), rows, "Presets on the engine's Cornell box",
                  [("preset", "preset", None), ("patches", "patches", tables.count), ("points", "points", tables.count),
                   ("shots", "shots", tables.count), ("rays", "rays", tables.mega), ("residual", "residual", None),
                   ("seconds", "solve time", tables.seconds), ("floor_centre", "floor centre RGB", None),
-                  ("load1", "load average", None)],
-                 "One engine solve a preset (tests/scenes.py's Cornell box, both cores): wall time of Solver "
-                 "construction and solve().")
+                  ("threads", "threads", None), ("load1", "load average", None)],
+                 "One engine solve a preset (tests/scenes.py's Cornell box): wall time of Solver construction "
+                 "and solve(), on the threads given.")
 
 
 if __name__ == "__main__":

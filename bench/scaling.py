@@ -1,6 +1,6 @@
 """Scaling: a converged solve of the same room at about 1k, 10k and 100k vertices.
 
-    /usr/bin/python3.11 bench/scaling.py [preset] [patch size (m) ...]
+    [OMP_NUM_THREADS=1] /usr/bin/python3.11 bench/scaling.py [preset] [patch size (m) ...]
 
 Prints points, time and error for each size and the cost ratio of each step, and writes them to
 bench/results/scaling.csv and .md. Error is measured on the floor's vertices of the coarsest mesh,
@@ -47,7 +47,8 @@ def main():
         err = np.sqrt(np.mean((np.array([values[k] for k in coarse_keys]) - reference) ** 2)) / np.sqrt(np.mean(reference ** 2))
         row = dict(preset=preset, patch_m=patch, points=stats["points"], patches=stats["patches"],
                    shots=stats["shots"], rays=stats["rays"], seconds=f"{seconds:.3f}",
-                   error=f"{err:.5f}" if i < len(runs) - 1 else "", x_points="", x_time="", load1=f"{os.getloadavg()[0]:.1f}")
+                   error=f"{err:.5f}" if i < len(runs) - 1 else "", x_points="", x_time="",
+                   threads=os.environ.get("OMP_NUM_THREADS", "all cores"), load1=f"{os.getloadavg()[0]:.1f}")
         if i == 0:
             print(f"{stats['points']:8d} {seconds:8.2f} {err:15.2%}")
         else:
@@ -62,7 +63,7 @@ def main():
                  [("patch_m", "patch size (m)", None), ("points", "points", tables.count),
                   ("shots", "shots", tables.count), ("rays", "rays", tables.mega), ("seconds", "time", tables.seconds),
                   ("error", "error vs finest", tables.percent), ("x_points", "x points", None),
-                  ("x_time", "x time", None), ("load1", "load average", None)],
+                  ("x_time", "x time", None), ("threads", "threads", None), ("load1", "load average", None)],
                  "The engine tests' Cornell box (tests/scenes.py) refined to each patch size and solved to the "
                  f"preset's threshold. Error: relative RMS over the floor's {len(coarse_keys)} coarsest vertices "
                  "against the finest solve. Target: 10x the points costs at most 20x the time.")
