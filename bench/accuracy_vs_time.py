@@ -3,13 +3,12 @@
     blender -b --factory-startup --python bench/accuracy_vs_time.py -- [--scenes cornell_box,...] [--quick]
         [--presets draft,default,high,reference] [--spp 16,64,256,1024,4096] [--dense-spp 16,64,256,1024]
         [--max-seconds 600]
-    blender -b --factory-startup --python bench/accuracy_vs_time.py -- --plot-only   (PNG from the CSV)
+    blender -b --factory-startup --python bench/accuracy_vs_time.py -- --plot-only   (PNG and table from the CSV)
 
 --quick: cornell_box, draft, Cycles at 16/64 spp (corners) and 16 (dense), into results/*_quick.* (~30 s).
 --keep-cycles: only our presets run; Cycles' rows (which do not change with the engine) and ours of
 the scenes and presets not run are kept from the CSV as they are (~3 min for draft, default and high).
-The full run took 28 min on 2 cores (2026-12-01: high 42-128 s per scene; reference 428 s on the
-Cornell box, stopped at 600 s on the subsurf room, skipped on the animated room).
+The full run takes about 30 min on 2 cores, most of it the `reference` preset.
 
 For each sample scene (animated_room at frame 1):
   ours    each preset through the add-on's pipeline (addon/bake.py BakeJob with the preset, then
@@ -31,7 +30,7 @@ reference.limit_reference), where the scene is traced; a row "cycles_converged" 
 corners' own limit_rms, the floor that no sample count of Cycles' vertex bake goes under.
 Runs under 10 s are repeated (3 in all) and the median time kept.
 
-Writes bench/results/accuracy_vs_time.csv and .png, and prints the table, the speed-up at equal
+Writes bench/results/accuracy_vs_time.csv, .md (tables.py) and .png, and prints the table, the speed-up at equal
 error (Cycles' time at our error, interpolated on the log-log line between its neighbouring sample
 counts) and, for the default preset, where the corner error sits (contact / junction / other corners).
 """
@@ -55,6 +54,7 @@ import cycles_settings  # noqa: E402
 import make_references  # noqa: E402  (grid_mesh: the dense layout; world_faces, emitting_corners)
 import plot_png  # noqa: E402
 import reference  # noqa: E402
+import tables  # noqa: E402
 
 SCENES = {"cornell_box": None, "subsurf_room": None, "animated_room": 1}
 PRESETS = ["draft", "default", "high", "reference"]
@@ -62,10 +62,32 @@ SPP = [16, 64, 256, 1024, 4096]
 DENSE_SPP = [16, 64, 256, 1024]      # the dense reference itself is 4,096 spp
 CYCLES_SEED = 1
 ATTR = "CyclesBench"
-OUT = os.path.join(ROOT, "bench", "results")
-CSV = os.path.join(OUT, "accuracy_vs_time.csv")
-PNG = os.path.join(OUT, "accuracy_vs_time.png")
+CSV = tables.path_for("accuracy_vs_time")
+PNG = CSV.replace(".csv", ".png")
 FIELDS = ["scene", "method", "setting", "seconds", "corner_rms", "dense_rms", "limit_rms", "load1", "note"]
+COLUMNS = [("scene", "scene", None), ("method", "method", None), ("setting", "preset / spp", None),
+           ("seconds", "time", tables.seconds), ("corner_rms", "corner RMS", tables.percent),
+           ("dense_rms", "dense RMS", tables.percent), ("limit_rms", "limit RMS", tables.percent)]
+NOTES = """Relative RMS error against cached Cycles references (tests/cycles_reference/). corner: the
+non-emitting cage corners (what the `Radiosity` attribute holds) against Cycles' 262,144-spp vertex
+bake; dense: our refined patch corners (cycles_dense: Cycles' 0.25 m grid points) against a
+4,096-spp dense bake; limit: the corners against the limit reference (Cycles off junctions, a path
+tracer 1e-5 inside the face on them; traced scenes only). Time: export + solve + write-back for ours
+(median of 3 under 10 s), the bake operator for Cycles; `cycles_converged` is the reference bake
+itself; a row of ours without errors was stopped at --max-seconds. 2 shared cores: the CSV's load1
+column gives the load average at each row."""
+METHODS = ["ours", "cycles", "cycles_dense", "cycles_converged"]
+
+
+def save(rows, path):
+    """The CSV and its Markdown table, rows grouped by scene, method and setting."""
+    scenes = [label(name, frame) for name, frame in SCENES.items()]
+
+    def key(r):
+        setting = r["setting"]
+        return (scenes.index(r["scene"]) if r["scene"] in scenes else len(scenes), METHODS.index(r["method"]),
+                PRESETS.index(setting) if setting in PRESETS else int(setting))
+    tables.write(path, FIELDS, sorted(rows, key=key), "Accuracy against time", COLUMNS, NOTES)
 
 
 def options():
@@ -452,15 +474,15 @@ def plot(rows, path):
 
 def main():
     opt = options()
-    os.makedirs(OUT, exist_ok=True)
     if opt["plot_only"] or opt["keep_cycles"]:
         with open(CSV) as f:
             kept = list(csv.DictReader(f))
     if opt["plot_only"]:
         rows = kept
         report(rows)
+        save(rows, CSV)
         plot(rows, PNG)
-        print("wrote", PNG)
+        print("wrote", PNG, "and the table beside it")
         return
     pkg = load_package()
     engine = pkg.engine.load_engine()
@@ -498,10 +520,7 @@ def main():
                 if preset == "default":
                     details[label(name, frame)] = detail
                     print(breakdown(label(name, frame), detail), flush=True)
-        with open(CSV if not opt["quick"] else CSV.replace(".csv", "_quick.csv"), "w", newline="") as f:
-            w = csv.DictWriter(f, FIELDS)
-            w.writeheader()
-            w.writerows(rows)
+        save(rows, tables.path_for("accuracy_vs_time", opt["quick"]))
     report(rows)
     for sc, d in details.items():
         print(breakdown(sc, d))

@@ -3,8 +3,8 @@
     blender -b --factory-startup --python bench/dynamic_update.py -- [preset] [frames] [full_repeats] [scenes] [db_cache_mb] [playbacks]
 
 preset: draft (default) | default | high; frames: frames played per scene, spread evenly over its
-range (0, the default: every frame, so that each update is one frame's change, as the issue asks;
-6 steps 4 frames at a time, as live playback's updates at 10k span 4-6 frames);
+range (0, the default: every frame, so that each update is one frame's change; 6 steps 4 frames at
+a time, as live playback's updates at 10k span 4-6 frames);
 full_repeats: full re-solves timed per scene (default 2); scenes: comma-separated names (all);
 db_cache_mb: the dB cache's cap (the add-on's default; 0 = no cache); playbacks: runs of the
 playback below (default 3; 0 skips it). Scenes:
@@ -41,6 +41,9 @@ frame they were solved for (the residual's share), "rms settled" the colours aft
 (live_update._watch) and the rest was shot to the threshold in the worker, which took "settle s"
 (wall time until written, polled every live_update.WATCH_INTERVAL as the timer polls), of which
 the longest timer call held the main thread "held ms" (export, diff, write-back).
+
+Writes bench/results/dynamic_update_PRESET.csv (per scene: cost and playback) and
+dynamic_update_PRESET_moves.csv (per scene and way: dB cache and shooting on), each with its .md.
 """
 import os
 import statistics
@@ -57,6 +60,8 @@ sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
 from conftest import load_package  # noqa: E402
 import make_samples as ms  # noqa: E402
 from reference import relative_rms  # noqa: E402
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+import tables  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 PRESET = (args[0] if args else "draft").upper()
@@ -353,6 +358,58 @@ def main():
                   f"playing {'yes' if r['playback']['fps'] >= 0.95 * r['fps'] else 'no'} ({r['playback']['fps']:.1f} fps, "
                   f"residual {100 * r['playback']['residual']:.2f}%); "
                   f"after Bake Animation {'yes' if r['baked'] <= 1 / 24 else 'no'} ({1 / r['baked']:.0f} fps)")
+    save(rows)
+
+
+def save(rows):
+    """The two tables above as CSVs with their Markdown, named for the preset."""
+    run = " ".join(sys.argv[sys.argv.index("--") + 1:]) if "--" in sys.argv else ""
+    how = (f"`blender -b --factory-startup --python bench/dynamic_update.py -- {run}`".replace(" -- `", "`")
+           + f": preset {PRESET.lower()}, {f'{FRAMES} frames' if FRAMES else 'every frame'} of each scene "
+           f"(animated_room: the sample; room_20k / room_10k: a 4 m room with a 0.4 m box crossing the floor), "
+           f"medians; 2 shared cores.")
+    per_scene = []
+    for r in rows:
+        p = r["playback"] or {}
+        per_scene.append(dict(
+            scene=r["scene"], vertices=r["vertices"], points=r["points"], full_s=f"{r['full']:.3f}",
+            update_s=f"{r['update']:.3f}", ratio=f"{r['full'] / r['update']:.1f}" if r["update"] > 0 else "",
+            touched=f"{r['touched']:.3f}", live_s=f"{r['incremental']:.3f}", frame_s=f"{r['frame']:.3f}",
+            baked_fps=f"{1 / r['baked']:.0f}", playing_fps=f"{p['fps']:.1f}" if p else "",
+            frames_per_update=f"{p['span']:.1f}" if p else "", residual=f"{p['residual']:.4f}" if p else "",
+            rms_playing=f"{p['playing']:.4f}" if p else "", rms_settled=f"{p['settled']:.4f}" if p else "",
+            settle_s=f"{p['settle']:.3f}" if p else ""))
+    tables.write(tables.path_for(f"dynamic_update_{PRESET.lower()}"), list(per_scene[0]), per_scene,
+                 f"Dynamic update cost ({PRESET.lower()} preset)",
+                 [("scene", "scene", None), ("points", "points", tables.count), ("full_s", "full solve", tables.seconds),
+                  ("update_s", "update", tables.seconds), ("ratio", "full / update", None),
+                  ("live_s", "live update, converged", tables.seconds), ("playing_fps", "playing fps", None),
+                  ("frames_per_update", "frames an update", None), ("rms_playing", "RMS playing", tables.percent),
+                  ("rms_settled", "RMS settled", tables.percent), ("baked_fps", "baked playback fps", None)],
+                 how + " full: a new solver and solve of a played frame; update: Solver.update() of a frame "
+                 "change; live update: export + diff + update + colours + write-back; playing: the frame range "
+                 "played as the UI plays it (updates in a worker, a frame's time of shooting each), its colours "
+                 "against a fresh solve of the last frame while playing and once settled; baked playback: "
+                 "after Bake Animation, each frame's stored colours written.")
+    moves = [dict(scene=r["scene"], way=way, cpu_s=f"{d['cpu']:.3f}", rays=f"{d['rays']:.0f}",
+                  changed=f"{d['changed']:.0f}", hits=f"{d['hits']:.0f}",
+                  hit_share=f"{d['hits'] / max(1, d['changed']):.3f}", cache_mb=f"{r['db_mb']:.1f}",
+                  left=f"{d['left'] / r['threshold']:.1f}", shots=f"{d['shots']:.0f}", shoot_s=f"{d['shoot']:.3f}",
+                  shoot_share=f"{d['shoot'] / max(1e-9, d['seconds']):.3f}",
+                  bound=f"{r['full'] / max(1e-9, d['shoot']):.1f}")
+             for r in rows for way, d in r["db"].items()]
+    tables.write(tables.path_for(f"dynamic_update_{PRESET.lower()}_moves"), list(moves[0]), moves,
+                 f"Dynamic updates forward and back: dB cache and shooting on ({PRESET.lower()} preset)",
+                 [("scene", "scene", None), ("way", "way", None), ("cpu_s", "CPU an update", tables.seconds),
+                  ("rays", "rays", tables.mega), ("changed", "changed rays", tables.count),
+                  ("hit_share", "answered by the dB cache", tables.percent), ("cache_mb", "cache MB", None),
+                  ("left", "left (thresholds)", None), ("shots", "shots", None),
+                  ("shoot_s", "shooting on", tables.seconds), ("shoot_share", "share of the update", tables.percent),
+                  ("bound", "full / shooting on", None)],
+                 how + " The frames are played forward, then back. changed rays: rays the move changed, each "
+                 "a trace of the scene without the moving object unless the dB cache answers it. left: the light "
+                 "an update's gathers leave unshot, in thresholds; shooting on: the shots that take it back under "
+                 "the threshold; full / shooting on bounds full / update for any update shooting like this.")
 
 
 main()

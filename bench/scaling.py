@@ -1,8 +1,11 @@
 """Scaling: a converged solve of the same room at about 1k, 10k and 100k vertices.
 
-Prints points, time and error for each size and the cost ratio of each step. Error is measured on
-the floor's vertices of the coarsest mesh, which every finer (uniformly refined) mesh contains,
-against the finest solve. Target: 10x the vertices costs at most 20x the time."""
+    [OMP_NUM_THREADS=1] /usr/bin/python3.11 bench/scaling.py [preset] [patch size (m) ...]
+
+Prints points, time and error for each size and the cost ratio of each step, and writes them to
+bench/results/scaling.csv and .md. Error is measured on the floor's vertices of the coarsest mesh,
+which every finer (uniformly refined) mesh contains, against the finest solve. Target: 10x the
+vertices costs at most 20x the time."""
 import os
 import sys
 import time
@@ -11,6 +14,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 from scenes import cornell_box, engine  # noqa: E402
+import tables  # noqa: E402
 
 
 def floor_values(solver, room):
@@ -38,16 +42,31 @@ def main():
     coarse_keys = [k for k in runs[0][3] if k in finest]
     reference = np.array([finest[k] for k in coarse_keys])
     print(f"\n{'points':>8} {'time s':>8} {'error vs finest':>16} {'x points':>9} {'x time':>7} {'time/points':>12}")
+    rows = []
     for i, (patch, stats, seconds, values) in enumerate(runs):
         err = np.sqrt(np.mean((np.array([values[k] for k in coarse_keys]) - reference) ** 2)) / np.sqrt(np.mean(reference ** 2))
+        row = dict(preset=preset, patch_m=patch, points=stats["points"], patches=stats["patches"],
+                   shots=stats["shots"], rays=stats["rays"], seconds=f"{seconds:.3f}",
+                   error=f"{err:.5f}" if i < len(runs) - 1 else "", x_points="", x_time="",
+                   threads=os.environ.get("OMP_NUM_THREADS", "all cores"), load1=f"{os.getloadavg()[0]:.1f}")
         if i == 0:
             print(f"{stats['points']:8d} {seconds:8.2f} {err:15.2%}")
         else:
             p0, s0 = runs[i - 1][1]["points"], runs[i - 1][2]
             growth = stats["points"] / p0
+            row.update(x_points=f"{growth:.1f}", x_time=f"{seconds / s0:.1f}")
             print(f"{stats['points']:8d} {seconds:8.2f} {err:15.2%} {growth:9.1f} {seconds / s0:7.1f} "
                   f"{(seconds / s0) / growth:12.2f}")
+        rows.append(row)
     print(f"(floor vertices compared: {len(coarse_keys)}; 'time/points' <= 2 meets the target)")
+    tables.write(tables.path_for("scaling"), list(rows[0]), rows, f"Scaling ({preset} preset)",
+                 [("patch_m", "patch size (m)", None), ("points", "points", tables.count),
+                  ("shots", "shots", tables.count), ("rays", "rays", tables.mega), ("seconds", "time", tables.seconds),
+                  ("error", "error vs finest", tables.percent), ("x_points", "x points", None),
+                  ("x_time", "x time", None), ("threads", "threads", None), ("load1", "load average", None)],
+                 "The engine tests' Cornell box (tests/scenes.py) refined to each patch size and solved to the "
+                 f"preset's threshold. Error: relative RMS over the floor's {len(coarse_keys)} coarsest vertices "
+                 "against the finest solve. Target: 10x the points costs at most 20x the time.")
 
 
 if __name__ == "__main__":
