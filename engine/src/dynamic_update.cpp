@@ -14,6 +14,8 @@
 // one that appears, a move from nowhere.
 #include "solver_impl.h"
 
+#include "coincident_patches.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -98,12 +100,16 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   std::map<int, PlacedObject> placed;
   for (const auto& [o, m] : changes.meshes) {
     const MeshDesc& was = scene.meshes[o];
-    if (mesh.objects[o].coincident &&
+    if (mesh.objects[o].coincident_with_others &&
         (m.transform != was.transform || m.positions != was.positions || m.visible != was.visible))
       throw std::invalid_argument("object '" + m.name +
-                                  "': it has faces stacked on others' (or others on its), seen once; moved, it "
-                                  "must be added anew");
+                                  "': it has faces stacked on another object's (or another's on its), seen once; "
+                                  "changed, it must be added anew");
     placed[o] = refine_object(mesh, o, m);
+    if (!copies_hold(mesh, o, placed[o]))
+      throw std::invalid_argument("object '" + m.name +
+                                  "': its deformation pulls apart faces stacked on its own, seen once; it must be "
+                                  "added anew");
   }
   auto done = [&]() -> const SolveStats& {
     DbCache::Counts db = db_cache.take_counts();

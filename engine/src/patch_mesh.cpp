@@ -81,7 +81,7 @@ PlacedObject place(const PatchMesh& pm, const MeshDesc& mesh, RefinedMesh refine
   for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
     int v[4];
     for (int c = 0; c < 4; ++c) v[c] = pm.patches[q].vertex[c] - obj.vertex_begin;
-    Facet f = facet(pm, out.at[v[0]], out.at[v[1]], out.at[v[2]], out.at[v[3]]);
+    Facet f = pm.patches[q].copy_of >= 0 ? Facet{} : facet(pm, out.at[v[0]], out.at[v[1]], out.at[v[2]], out.at[v[3]]);
     bool smooth = shaded_smooth(mesh, refined, obj, q, f.area);
     for (int c = 0; c < 4; ++c) {
       dvec3 n = f.normal;
@@ -110,7 +110,7 @@ void set_geometry(PatchMesh& pm, const MeshDesc& mesh, const PlacedObject& place
     patch.area = f.area;
     patch.normal = f.normal;
     patch.centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
-    if (f.area == 0) ++obj.degenerate;
+    if (f.area == 0 && patch.copy_of < 0) ++obj.degenerate;
     patch.interior_share = shaded_smooth(mesh, placed.refined, obj, q, f.area)
                                ? interior_share(corners, &placed.normals[4 * (q - obj.patch_begin)])
                                : 1.0;

@@ -21,6 +21,9 @@ struct Patch {
   dvec3 normal{0.0};          // unit, front side
   dvec3 centre{0.0};
   double interior_share = 1.0;  // corner_view.h; 1 unless smooth-shaded
+  // The patch this one is a coincident copy of (coincident_patches.h), or -1. A copy keeps zero area
+  // and normal wherever it is placed: it takes no part in the lighting.
+  int copy_of = -1;
 };
 
 // A receiving point. Corners meeting at a vertex share a point where their normals agree; a crease
@@ -54,9 +57,10 @@ struct ObjectPatches {
   Sphere enclosure;
   bool mirrored = false;  // transform flips handedness
   std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place
-  // Some of its patches lie exactly on others, or others on them (coincident_patches.h): its corners
-  // read another's light, so it cannot change without a new patch mesh.
-  bool coincident = false;
+  // Some of its patches lie exactly on another object's, or another's on its (coincident_patches.h):
+  // its corners read another object's light, or the other way round, so it cannot move or change
+  // without a new patch mesh. Copies within the object move with it.
+  bool coincident_with_others = false;
 };
 
 struct PatchMesh {

@@ -45,19 +45,46 @@ def test_five_stacked_copies_light_the_scene_as_one(one_mesh):
             np.testing.assert_allclose(face, single, rtol=0.005)
 
 
-def test_moving_a_stack_asks_for_a_new_solver():
-    """Its corners read another's light: a move would leave them reading what is no longer there."""
+
+def panel_scene(copies, one_mesh, lift=0.0, dynamic=False):
+    """The floor and a stacked panel as a Scene, the panel `lift` higher."""
     scene = engine.Scene()
     white = scene.add_material((0.8, 0.8, 0.8))
-    stack = Mesh()
-    for _ in range(2):
-        stack.add_face(PANEL, white)
-    stack_id = stack.add_to(scene)
+    floor = Mesh()
+    floor.add_face(FLOOR, white)
+    floor.add_to(scene, refine="bilinear", patch_size=0.1)
+    moved = np.eye(4)
+    moved[2, 3] = lift
+    meshes = [Mesh() for _ in range(1 if one_mesh else copies)]
+    for c in range(copies):
+        meshes[0 if one_mesh else c].add_face(PANEL, white)
+    for m in meshes:
+        m.add_to(scene, refine="bilinear", patch_size=0.1, transform=moved, dynamic=dynamic)
     scene.add_point_light((0, 0, 0.25), (5, 5, 5), 0.01)
-    solver = engine.Solver(scene, engine.Settings.preset("draft"))
+    return scene
+
+
+def test_a_stack_in_one_mesh_moves_as_one_copy_does():
+    """Its copies move with it: the update equals a fresh solve of the moved scene."""
+    settings = engine.Settings.preset("default")
+    solver = engine.Solver(panel_scene(3, True, dynamic=True), settings)
+    solver.solve()
+    moved = np.eye(4)
+    moved[2, 3] = 0.2
+    solver.set_transform(1, moved)
+    solver.update()
+    fresh = engine.Solver(panel_scene(3, True, lift=0.2, dynamic=True), settings)
+    fresh.solve()
+    for o in (0, 1):
+        np.testing.assert_allclose(solver.corner_radiance(o, False), fresh.corner_radiance(o, False), rtol=0.005)
+
+
+def test_moving_one_of_a_stack_across_meshes_asks_for_a_new_solver():
+    """Its corners read another object's light: a move would leave them reading what is no longer there."""
+    solver = engine.Solver(panel_scene(2, False), engine.Settings.preset("draft"))
     solver.solve()
     moved = np.eye(4)
     moved[2, 3] = 0.1
-    solver.set_transform(stack_id, moved)
+    solver.set_transform(2, moved)
     with pytest.raises(ValueError, match="added anew"):
         solver.update()
