@@ -65,6 +65,8 @@ class BakeJob:
             self.settings = engine_settings(props, self.engine)
         else:
             self.settings = self.engine.Settings.preset(preset or "default")
+        # Blender's Render > Performance > Threads (Auto-detect: every core), as Cycles follows it.
+        self.settings.threads = scene.render.threads
         self.solver = None
         self.base = None
         if base is not None:
@@ -150,6 +152,7 @@ class BakeJob:
             return dict(base, touched_points=0, seconds=0.0, shots_before=base.get("shots", 0),
                         rays_before=base.get("rays", 0), warnings=list(base.get("warnings", [])))
         try:
+            self.solver.set_threads(self.settings.threads)
             apply_calls(self.solver, self.calls)
             st = dict(self.solver.update(progress=self._progress))
         except ValueError as e:           # e.g. a scaled object refines to another patch count

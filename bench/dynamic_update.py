@@ -22,7 +22,7 @@ write-back) through the add-on's own handler; "update" is the engine's Solver.up
 and solve() of the same frame's export. Medians; no timed asserts.
 
 The dB cache: the frames are played forward, then back (each move the reverse of one before);
-"cpu s" is the process CPU time of an update (run with OMP_NUM_THREADS=1 for one thread's), "rays"
+"cpu s" is the process CPU time of an update (run Blender with `-t 1` for one thread's), "rays"
 all rays it traced, "changed" the rays the move changed (each needs a trace of the scene without
 the box, unless the cache answers: "hits"), "cache MB" what the cache holds after the last frame.
 

@@ -11,25 +11,23 @@ import os
 import statistics
 import sys
 
-if "--threads" in sys.argv:  # before OpenMP starts, which reads it once
-    at = sys.argv.index("--threads")
-    os.environ["OMP_NUM_THREADS"] = sys.argv[at + 1]
-    del sys.argv[at:at + 2]
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-from scenes import cornell_box, engine  # noqa: E402
+from scenes import cornell_box, engine, preset, threads_option  # noqa: E402
 import tables  # noqa: E402
 
+THREADS = threads_option(sys.argv)
 
-def measure(preset, repeats=3):
+
+def measure(name, repeats=3):
     ratios, solver_rates, bare_rates = [], [], []
     for _ in range(repeats):
         scene, _ = cornell_box()
-        solver = engine.Solver(scene, engine.Settings.preset(preset))
+        solver = engine.Solver(scene, preset(name, THREADS))
         stats = solver.solve()
         solver_rate = stats["rays"] / stats["seconds"]
         # Same scene again, keeping every n-th batch of rays (about 10 M rays, 0.6 GB) to replay bare.
         scene, _ = cornell_box()
-        recorder = engine.Solver(scene, engine.Settings.preset(preset))
+        recorder = engine.Solver(scene, preset(name, THREADS))
         recorder.record_rays(max(8, stats["rays"] // 10_000_000))
         recorder.solve()
         bare_rate = recorder.replay_recorded_rays()
@@ -40,15 +38,15 @@ def measure(preset, repeats=3):
 
 
 def main():
-    threads = os.environ.get("OMP_NUM_THREADS", "all cores")
+    threads = THREADS or "all cores"
     print(f"{'scene':12} {'preset':8} {'points':>7} {'rays':>11} {'solver Mrays/s':>15} "
           f"{'bare Mrays/s':>13} {'ratio':>6}   (medians of 3; threads: {threads})")
     rows = []
-    for preset in sys.argv[1:] or ["draft", "default"]:
-        stats, solver_rate, bare_rate, ratio = measure(preset)
-        print(f"{'cornell_box':12} {preset:8} {stats['points']:7d} {stats['rays']:11d} "
+    for name in sys.argv[1:] or ["draft", "default"]:
+        stats, solver_rate, bare_rate, ratio = measure(name)
+        print(f"{'cornell_box':12} {name:8} {stats['points']:7d} {stats['rays']:11d} "
               f"{solver_rate / 1e6:15.2f} {bare_rate / 1e6:13.2f} {ratio:6.2f}", flush=True)
-        rows.append(dict(scene="cornell_box", preset=preset, threads=threads, points=stats["points"],
+        rows.append(dict(scene="cornell_box", preset=name, threads=threads, points=stats["points"],
                          rays=stats["rays"], solver_mrays=f"{solver_rate / 1e6:.2f}",
                          bare_mrays=f"{bare_rate / 1e6:.2f}", ratio=f"{ratio:.3f}",
                          load1=f"{os.getloadavg()[0]:.1f}"))
@@ -60,9 +58,7 @@ def main():
                   ("ratio", "ratio", tables.fixed(2)), ("load1", "load average", None)],
                  "The solver's rays over its whole solve time against rtcOccluded1M replaying an even sample "
                  "of the same rays on the same scene (the engine tests' Cornell box, tests/scenes.py); "
-                 "medians of 3. Target: ratio >= 0.7. On both cores the ratio means little when the load "
-                 "average is above the core count: the solver's OpenMP threads wait on each other where the "
-                 "bare replay does not; one thread (--threads 1) is steadier.")
+                 "medians of 3. Target: ratio >= 0.7. One thread (--threads 1) is steadier on a shared machine.")
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """Scaling: a converged solve of the same room at about 1k, 10k and 100k vertices.
 
-    [OMP_NUM_THREADS=1] /usr/bin/python3.11 bench/scaling.py [preset] [patch size (m) ...]
+    /usr/bin/python3.11 bench/scaling.py [--threads N] [preset] [patch size (m) ...]
 
 Prints points, time and error for each size and the cost ratio of each step, and writes them to
 bench/results/scaling.csv and .md. Error is measured on the floor's vertices of the coarsest mesh,
@@ -13,7 +13,8 @@ import time
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-from scenes import cornell_box, engine  # noqa: E402
+from scenes import cornell_box, engine, threads_option  # noqa: E402
+from scenes import preset as settings_of  # noqa: E402
 import tables  # noqa: E402
 
 
@@ -25,13 +26,14 @@ def floor_values(solver, room):
 
 
 def main():
+    threads = threads_option(sys.argv)
     preset = sys.argv[1] if len(sys.argv) > 1 else "default"
     sizes = [float(s) for s in sys.argv[2:]] or [0.25, 0.1, 0.03]  # patch sizes (m): 1.4k, 9k, 135k points
     runs = []
     for patch in sizes:
         scene, ids = cornell_box(patch_size=patch)
         start = time.perf_counter()
-        solver = engine.Solver(scene, engine.Settings.preset(preset))
+        solver = engine.Solver(scene, settings_of(preset, threads))
         stats = solver.solve()
         seconds = time.perf_counter() - start
         runs.append((patch, stats, seconds, floor_values(solver, ids[0])))
@@ -48,7 +50,7 @@ def main():
         row = dict(preset=preset, patch_m=patch, points=stats["points"], patches=stats["patches"],
                    shots=stats["shots"], rays=stats["rays"], seconds=f"{seconds:.3f}",
                    error=f"{err:.5f}" if i < len(runs) - 1 else "", x_points="", x_time="",
-                   threads=os.environ.get("OMP_NUM_THREADS", "all cores"), load1=f"{os.getloadavg()[0]:.1f}")
+                   threads=threads or "all cores", load1=f"{os.getloadavg()[0]:.1f}")
         if i == 0:
             print(f"{stats['points']:8d} {seconds:8.2f} {err:15.2%}")
         else:

@@ -14,6 +14,23 @@ except ImportError as e:
                       f"({e}): build it (cmake --build build)") from e
 
 
+def preset(name, threads=0):
+    """The engine's Settings of preset `name`, working on `threads` threads (0: one a core)."""
+    settings = engine.Settings.preset(name)
+    settings.threads = threads
+    return settings
+
+
+def threads_option(argv):
+    """A bench's `--threads N`, taken out of argv: the engine's thread count (0, one a core, if absent)."""
+    if "--threads" not in argv:
+        return 0
+    at = argv.index("--threads")
+    threads = int(argv[at + 1])
+    del argv[at:at + 2]
+    return threads
+
+
 class Mesh:
     """Faces collected as corner lists, turned into the engine's flat arrays."""
 

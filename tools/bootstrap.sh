@@ -3,7 +3,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(blender python3-numpy pybind11-dev libembree-dev libosd-dev libglm-dev python3-dev
+packages=(blender python3-numpy pybind11-dev libembree-dev libtbb-dev libosd-dev libglm-dev python3-dev
           python3-pytest libgtest-dev cmake g++ make)
 missing=()
 for p in "${packages[@]}"; do

@@ -76,6 +76,7 @@ py::dict stats_dict(const SolveStats& s) {
   d["patches"] = s.patches;
   d["points"] = s.points;
   d["shooters"] = s.shooters;
+  d["threads"] = s.threads;
   d["relaxation"] = s.relaxation;
   d["converged"] = s.converged;
   d["diverged"] = s.diverged;
@@ -193,7 +194,8 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def_readwrite("exact_near_reflected", &Settings::exact_near_reflected)
       .def_readwrite("max_shots", &Settings::max_shots)
       .def_readwrite("max_patches", &Settings::max_patches)
-      .def_readwrite("db_cache_mb", &Settings::db_cache_mb);
+      .def_readwrite("db_cache_mb", &Settings::db_cache_mb)
+      .def_readwrite("threads", &Settings::threads);
 
   py::class_<SceneDesc>(m, "Scene")
       .def(py::init<>())
@@ -346,6 +348,8 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def("set_world_map", [](Solver& s, const Array<double>& texels) { s.set_world_map(world_map(texels)); },
            py::arg("texels"), kWorldMapDoc)
       .def("cancel", &Solver::cancel)
+      .def("set_threads", &Solver::set_threads, py::arg("threads"),
+           "Threads the calls from now on work on (0: one a core); not while a call runs")
       .def("record_rays", &Solver::record_rays, py::arg("stride") = 1,
            "Benchmark hook: keep every stride-th batch of visibility rays traced from now on")
       .def("replay_recorded_rays", &Solver::replay_recorded_rays, py::call_guard<py::gil_scoped_release>(),

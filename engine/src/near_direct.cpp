@@ -225,8 +225,7 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
   double near = settings.near_factor;
   std::vector<std::vector<int>> patches(count);
   std::vector<double> reach(count, 0.0);
-#pragma omp parallel for schedule(dynamic, 16)
-  for (int k = 0; k < count; ++k) {
+  parallel_for(0, count, 16, [&](int k) {
     const dvec3& x = mesh.points[wanted[k]].position;
     std::vector<int> stack(tree.roots.begin(), tree.roots.end());
     while (!stack.empty()) {
@@ -240,7 +239,7 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
         reach[k] = std::max(reach[k], d + n.radius);
       }
     }
-  }
+  });
   for (const std::vector<int>& near_patches : patches)
     for (int q : near_patches)
       for (int c : mesh.patches[q].point) nd.direct.try_emplace(c, direct_now(c));
@@ -250,8 +249,7 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
     for (int q : patches[k])
       if (const NearDetail* d = near_detail(q)) details[k].push_back(d);
   std::vector<dvec3> gained(count, dvec3(0.0));
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int k = 0; k < count; ++k) {
+  parallel_for(0, count, 4, [&](int k) {
     int i = wanted[k];
     for (const NearDetail* d : details[k]) {
       dvec3 h[2] = {dvec3(0.0), dvec3(0.0)};
@@ -261,7 +259,7 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
       batch.flush();
       gained[k] += h[0];
     }
-  }
+  });
   for (int k = 0; k < count; ++k) nd.points[wanted[k]] = {gained[k], std::move(patches[k]), reach[k]};
   for (const std::vector<const NearDetail*>& near_details : details)
     for (const NearDetail* d : near_details)

@@ -20,6 +20,7 @@ void Settings::validate() const {
   check(max_shots >= 0, "max_shots must be 0 (direct light only) or more");
   check(max_patches >= 1, "max_patches must be at least 1");
   check(db_cache_mb >= 0 && std::isfinite(db_cache_mb), "db_cache_mb must be 0 or more");
+  check(threads >= 0, "threads must be 0 (one a core) or more");
 }
 
 Settings Settings::preset(const std::string& name) {

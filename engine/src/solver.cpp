@@ -48,15 +48,18 @@ const Settings& validated(const Settings& s) {
 }  // namespace
 
 Solver::Impl::Impl(SceneDesc s, const Settings& st)
-    : scene(std::move(s)), settings(validated(st)), db_cache(settings.db_cache_mb) {
+    : workers(st.threads), scene(std::move(s)), settings(validated(st)), db_cache(settings.db_cache_mb) {
   scene.validate();
-  mesh = build_patch_mesh(scene, settings);
-  std::vector<std::string> coincident = merge_coincident_patches(mesh, scene.meshes);
-  tree = ClusterTree::build(mesh);
-  std::vector<bool> dynamic, visible;
-  for (const MeshDesc& m : scene.meshes) dynamic.push_back(m.dynamic), visible.push_back(m.visible);
-  vis = std::make_unique<Visibility>(mesh, dynamic, visible);
-  fit_to_mesh(0);
+  std::vector<std::string> coincident;
+  workers.run([&] {
+    mesh = build_patch_mesh(scene, settings);
+    coincident = merge_coincident_patches(mesh, scene.meshes);
+    tree = ClusterTree::build(mesh);
+    std::vector<bool> dynamic, visible;
+    for (const MeshDesc& m : scene.meshes) dynamic.push_back(m.dynamic), visible.push_back(m.visible);
+    vis = std::make_unique<Visibility>(mesh, dynamic, visible);
+    fit_to_mesh(0);
+  });
   if (mesh.patches.empty()) stats.warnings.push_back("the scene has no geometry: nothing to light");
   if (mesh.degenerate_patches > 0)
     stats.warnings.push_back(std::to_string(mesh.degenerate_patches) +
@@ -94,7 +97,6 @@ void Solver::Impl::mark_hidden(int object) {
 
 void Solver::Impl::apply_delta(Light light) {
   patch_power.resize(mesh.patches.size());
-#pragma omp parallel if (mesh.points.size() > 16 * kParallelMinimum)
   absorb_delta(-1, 0.0, light);
 }
 
@@ -102,18 +104,15 @@ RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light ligh
   int points = int(mesh.points.size());
   int patches = int(mesh.patches.size());
   bool reflected = light == Light::reflected;
-#pragma omp for schedule(static) nowait
-  for (int i = 0; i < points; ++i) {
+  auto add_to_point = [&](int i) {
     front[i] += delta_front[i];
     back[i] += delta_back[i];
     if (reflected) {
       reflected_front[i] += delta_front[i];
       reflected_back[i] += delta_back[i];
     }
-  }
-  // The patches read only the delta: no barrier between the loops.
-#pragma omp for schedule(static) nowait
-  for (int p = 0; p < patches; ++p) {
+  };
+  auto add_to_patch = [&](int p) {
     if (sent >= 0 && patch_shooter[p] == sent)
       for (int k = 0; k < 8; ++k) {
         shot[p][k] += omega * unshot[p][k];
@@ -129,7 +128,22 @@ RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light ligh
       }
     }
     patch_power[p] = unshot_power(unshot[p], patch.area);
+  };
+  // The patches read only the delta: points and patches are one loop, with one join. A small scene's
+  // loop is over sooner than a thread would wake for it.
+  if (points + patches <= 16 * kParallelMinimum) {
+    for (int i = 0; i < points; ++i) add_to_point(i);
+    for (int p = 0; p < patches; ++p) add_to_patch(p);
+    return;
   }
+  constexpr int kChunk = 1024;
+  int point_chunks = (points + kChunk - 1) / kChunk;
+  parallel_for(0, point_chunks + (patches + kChunk - 1) / kChunk, 1, [&](int k) {
+    if (k < point_chunks)
+      for (int i = k * kChunk, end = std::min(points, i + kChunk); i < end; ++i) add_to_point(i);
+    else
+      for (int p = (k - point_chunks) * kChunk, end = std::min(patches, p + kChunk); p < end; ++p) add_to_patch(p);
+  });
 }
 
 std::vector<double> Solver::Impl::summed_power() const {
@@ -245,8 +259,6 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, d
                            {settings.samples_indirect, settings.near_factor, far_samples(power[s], sampling)});
   sent.reflected = true;
   patch_power.resize(mesh.patches.size());
-  // The delta is applied on every core the gather ran on, after one barrier: on one thread it would
-  // be a tenth of a draft shot's time on two.
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }, true,
                   [&] { absorb_delta(s, omega, Light::reflected); }))
@@ -376,9 +388,27 @@ Solver::Solver(SceneDesc scene, const Settings& settings)
     : impl_(std::make_unique<Impl>(std::move(scene), settings)) {}
 Solver::~Solver() = default;
 
-const SolveStats& Solver::solve(const ProgressCallback& progress) { return impl_->solve(progress); }
+// Every call that works does so on the Solver's own threads (parallel.h).
+const SolveStats& Solver::solve(const ProgressCallback& progress) {
+  return *impl_->workers.run([&] {
+    impl_->stats.threads = tbb::this_task_arena::max_concurrency();
+    return &impl_->solve(progress);
+  });
+}
 void Solver::cancel() { impl_->cancel_requested = true; }
-const SolveStats& Solver::update(const ProgressCallback& progress) { return impl_->update(progress); }
+const SolveStats& Solver::update(const ProgressCallback& progress) {
+  return *impl_->workers.run([&] {
+    impl_->stats.threads = tbb::this_task_arena::max_concurrency();
+    return &impl_->update(progress);
+  });
+}
+void Solver::set_threads(int threads) {
+  Settings next = impl_->settings;
+  next.threads = threads;
+  next.validate();
+  impl_->settings = next;
+  impl_->workers.resize(threads);
+}
 
 void Solver::set_transform(int object, const dmat4& transform) {
   Impl& s = *impl_;
@@ -403,7 +433,9 @@ void Solver::set_visible(int object, bool visible) {
   it->second.visible = visible;
 }
 
-void Solver::add(const SceneDesc& more) { impl_->add(more); }
+void Solver::add(const SceneDesc& more) {
+  impl_->workers.run([&] { impl_->add(more); });
+}
 
 void Solver::set_material(int index, const Material& material) {
   impl_->scene.materials.at(index);
@@ -421,7 +453,9 @@ void Solver::set_world_map(WorldMap sky) { impl_->pending.world = std::move(sky)
 const SolveStats& Solver::stats() const { return impl_->stats; }
 
 void Solver::record_rays(int stride) { impl_->vis->record(stride); }
-double Solver::replay_recorded_rays() const { return impl_->vis->replay_recorded(); }
+double Solver::replay_recorded_rays() const {
+  return impl_->workers.run([&] { return impl_->vis->replay_recorded(); });
+}
 
 PowerBalance Solver::power_balance() const {
   const Impl& s = *impl_;
@@ -445,7 +479,7 @@ std::vector<float> Solver::corner_radiance(int object, bool exact_near_direct) c
     std::vector<int> points;
     for (int slot : obj.corner_slot)
       if (slot >= 0) points.push_back(impl_->mesh.patches[slot / 4].point[slot % 4]);
-    impl_->prepare_near_direct(points);
+    impl_->workers.run([&] { impl_->prepare_near_direct(points); });
   }
   std::vector<float> out(3 * obj.corner_slot.size());
   for (size_t i = 0; i < obj.corner_slot.size(); ++i) {

@@ -16,10 +16,14 @@
 #include "db_cache.h"
 #include "patch_mesh.h"
 #include "occlusion_batch.h"
+#include "parallel.h"
 #include "shot.h"
 #include "source.h"
 #include "visibility.h"
 
+#include <tbb/enumerable_thread_specific.h>
+
+#include <algorithm>
 #include <atomic>
 #include <map>
 #include <memory>
@@ -37,6 +41,7 @@ inline double channel_sum(const dvec3& v) { return v.x + v.y + v.z; }
 struct NearDetail;  // near_direct.cpp
 
 struct Solver::Impl {
+  Workers workers;  // first: what the others build, they build on its threads
   SceneDesc scene;
   Settings settings;
   PatchMesh mesh;
@@ -79,10 +84,9 @@ struct Solver::Impl {
 
   const Material& material(int patch) const { return scene.materials[mesh.patches[patch].material]; }
 
-  // Gathers into delta_* for every receiving point `wanted(i)` accepts, on all cores, in `batch_for`
-  // batches (one per thread). False if cancelled part-way (only when `cancellable`). Once all have
-  // gathered, and only if none was passed over, every thread runs `then`: what it shares out with
-  // orphaned `omp for` loops costs no parallel region of its own.
+  // Gathers into delta_* for every receiving point `wanted(i)` accepts, on the workers' threads, in
+  // `batch_for` batches (one per thread). False if cancelled part-way (only when `cancellable`). Once
+  // all have gathered, and only if none was passed over, runs `then`.
   struct Nothing {
     void operator()() const {}
   };
@@ -103,10 +107,8 @@ struct Solver::Impl {
   // radiance.
   enum class Light { direct, reflected };
   void apply_delta(Light light);
-  // apply_delta()'s loops, shared by the threads of the parallel region it is called in (or all on
-  // the calling thread outside one), with no barrier. First, shooter `sent` (if any) moves `omega`
-  // times its unshot radiance to what it has shot. Leaves each patch's share of shooter_power() in
-  // patch_power, read in the same pass.
+  // apply_delta(), after shooter `sent` (if any) moves `omega` times its unshot radiance to what it
+  // has shot. Leaves each patch's share of shooter_power() in patch_power, read in the same pass.
   void absorb_delta(int sent, double omega, Light light);
   std::vector<double> patch_power;
   std::vector<double> summed_power() const;  // shooter_power() from patch_power
@@ -199,18 +201,13 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
     delta_front.assign(count, dvec3(0.0));
     delta_back.assign(count, dvec3(0.0));
   }
-  long long rays = 0;
   auto cancelled = [&] { return cancellable && cancel_requested.load(std::memory_order_relaxed); };
-  std::atomic<int> passed_over{0};  // receivers left out on cancelling: counted, so all threads agree
-  // Small scenes stay on one thread: thousands of tiny parallel regions lose to spinning barriers,
-  // badly so when Blender or another process holds the other cores.
-#pragma omp parallel reduction(+ : rays) if (count > kParallelMinimum)
-  {
-    OcclusionBatch batch = batch_for();
-    // No barrier after the loop: each thread flushes its own batch, into its own receivers. Guided,
-    // so that the last chunks, which leave one thread waiting at the barrier below, are small.
-#pragma omp for schedule(guided, 4) nowait
-    for (int i = 0; i < count; ++i) {
+  std::atomic<int> passed_over{0};  // receivers left out on cancelling
+  // A batch a thread, made when the thread first takes part.
+  tbb::enumerable_thread_specific<OcclusionBatch> batches(batch_for);
+  auto gather_range = [&](int begin, int end) {
+    OcclusionBatch& batch = batches.local();
+    for (int i = begin; i < end; ++i) {
       if (cancelled()) {
         passed_over.fetch_add(1, std::memory_order_relaxed);
         continue;
@@ -219,19 +216,28 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
       if (p.normal == dvec3(0.0) || hidden_point[i] || !wanted(i)) continue;
       gather_one(i, p, batch);
     }
-    batch.flush();
-    rays += batch.rays_traced();
-    // Cleared by whichever thread is done gathering first, while the other finishes: on one thread
-    // before the region it would be a large part of a draft solve's serial work, and a barrier of
-    // its own would cost a time slice under load.
-#pragma omp for schedule(dynamic, 1024) nowait
-    for (int i = 0; i < int(spare_front.size()); ++i) spare_front[i] = spare_back[i] = dvec3(0.0);
-    if constexpr (!std::is_same_v<std::decay_t<Then>, Nothing>) {
-      // The one barrier a shot's serial work costs on all cores: `then` reads the whole delta.
-#pragma omp barrier
-      if (passed_over.load(std::memory_order_relaxed) == 0) then();
-    }
-  }
+  };
+  // Small scenes stay on one thread: sharing a few hundred points costs more than it saves.
+  if (count > kParallelMinimum)
+    tbb::parallel_for(tbb::blocked_range<int>(0, count, 4),
+                      [&](const tbb::blocked_range<int>& r) { gather_range(r.begin(), r.end()); });
+  else
+    gather_range(0, count);
+  // Each batch adds only into the receivers it gathered for: they flush side by side, and the dead
+  // spare is cleared beside them.
+  int spare = int(spare_front.size());
+  std::vector<OcclusionBatch*> pending;
+  for (OcclusionBatch& b : batches) pending.push_back(&b);
+  int flushes = int(pending.size());
+  parallel_for(0, flushes + (spare + 4095) / 4096, 1, [&](int k) {
+    if (k < flushes) return pending[k]->flush();
+    for (int i = (k - flushes) * 4096, end = std::min(spare, i + 4096); i < end; ++i)
+      spare_front[i] = spare_back[i] = dvec3(0.0);
+  });
+  long long rays = 0;
+  for (OcclusionBatch* b : pending) rays += b->rays_traced();
+  if constexpr (!std::is_same_v<std::decay_t<Then>, Nothing>)
+    if (passed_over.load(std::memory_order_relaxed) == 0) then();
   stats.rays += rays;
   return passed_over.load() == 0;
 }

@@ -1,6 +1,7 @@
 #include "visibility.h"
 
 #include "dispatch.h"
+#include "parallel.h"
 
 #include <algorithm>
 #include <chrono>
@@ -228,16 +229,15 @@ void Visibility::find_coincident(const PatchMesh& mesh, dvec3 lo, dvec3 hi) {
   double reach = 4 * epsilon_;
   lo -= reach, hi += reach;
   int count = int(mesh.patches.size());
-#pragma omp parallel for schedule(dynamic, 256)
-  for (int q = 0; q < count; ++q) {
+  parallel_for(0, count, 256, [&](int q) {
     const Patch& patch = mesh.patches[q];
     dvec3 corner[4];
     for (int c = 0; c < 4; ++c) corner[c] = mesh.vertices[patch.vertex[c]];
     dvec3 plo = glm::min(glm::min(corner[0], corner[1]), glm::min(corner[2], corner[3]));
     dvec3 phi = glm::max(glm::max(corner[0], corner[1]), glm::max(corner[2], corner[3]));
-    if (glm::any(glm::lessThan(phi, lo)) || glm::any(glm::greaterThan(plo, hi))) continue;
+    if (glm::any(glm::lessThan(phi, lo)) || glm::any(glm::greaterThan(plo, hi))) return;
     under_[q] = 0;
-    if (patch.area == 0) continue;
+    if (patch.area == 0) return;
     RTCRay rays[2][kProbes];
     int target[kProbes], own[2][kProbes];
     float zone[kProbes];
@@ -257,7 +257,7 @@ void Visibility::find_coincident(const PatchMesh& mesh, dvec3 lo, dvec3 hi) {
       if (rays[0][k].tfar < 0) under_[q] |= kOnOther;
       else if (rays[1][k].tfar < 0) under_[q] |= kOnOwn;
     }
-  }
+  });
 }
 
 void Visibility::record(int stride) {
@@ -272,12 +272,11 @@ double Visibility::replay_recorded() const {
   for (const auto& b : batches) rays += b.size();
   int count = int(batches.size());
   auto start = std::chrono::steady_clock::now();
-#pragma omp parallel for schedule(dynamic, 16)
-  for (int i = 0; i < count; ++i) {
+  parallel_for(0, count, 16, [&](int i) {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     rtcOccluded1M(top_, &context, batches[i].data(), unsigned(batches[i].size()), sizeof(RTCRay));
-  }
+  });
   double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return rays / seconds;
 }

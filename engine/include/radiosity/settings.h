@@ -42,6 +42,9 @@ struct Settings {
   // rays its moves change, so that a move back traces them no more. Full, it starts over, and rays
   // it does not hold are traced again: the same results. 0: no cache. About 20 bytes a ray.
   double db_cache_mb = 256.0;
+  // Threads a solve, an update or a read works on; 0: one a core. Blender's Render > Performance >
+  // Threads sets it, so that a bake leaves the cores the user keeps for other work.
+  int threads = 0;
 
   // std::invalid_argument naming the first knob out of its range: a threshold of 0 would run
   // max_shots shots, a relaxation of 2.5 diverge under a message blaming the faces.

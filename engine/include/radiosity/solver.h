@@ -18,6 +18,7 @@ struct SolveStats {
   long shots = 0;            // shots so far (lamps count as one)
   long long rays = 0;        // visibility rays so far
   int patches = 0, points = 0, shooters = 0;
+  int threads = 0;           // the last solve() or update() worked on (Settings::threads)
   double relaxation = 1.0;   // the over-relaxation the last shots took (Settings::relaxation 0: chosen)
   long long touched_points = 0;  // last update(): receiving points whose light was recomputed
   // Last update(): the residual its signed gathers left for shooting on, and the seconds that
@@ -57,6 +58,7 @@ class Solver {
   // cancel. A cancelled solve stops at the last complete shot: the state stays consistent.
   const SolveStats& solve(const ProgressCallback& progress = {});
   void cancel();  // thread-safe: the running solve stops soon after
+  void set_threads(int threads);  // Settings::threads for the calls from now on; not while one runs
 
   // Scene changes, applied by the next update(). Indices are the SceneDesc's. An object keeps its
   // patches: a new transform or new positions must refine to the same topology (else
