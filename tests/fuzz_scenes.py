@@ -20,6 +20,8 @@ import bpy
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "addon"))
+from conftest import load_package  # noqa: E402
 OLD = 0.25      # the colour every mesh holds before the bake: what a failure must leave
 
 
@@ -126,27 +128,13 @@ def build(seed, preset='DRAFT'):
     return obs
 
 
-def _colours(ob):
-    attr = ob.data.color_attributes.get("Radiosity")
-    if attr is None:
-        return None
-    values = np.empty(len(attr.data) * 4, np.float32)
-    attr.data.foreach_get("color", values)
-    return values.reshape(-1, 4)
-
-
-def _paint_old(ob):
-    attr = ob.data.color_attributes.get("Radiosity") or ob.data.color_attributes.new(
-        "Radiosity", 'FLOAT_COLOR', 'CORNER')
-    attr.data.foreach_set("color", np.full(len(attr.data) * 4, OLD, np.float32))
-
-
 def bake_and_check(seed, preset='DRAFT'):
-    """Builds and bakes the scene of `seed`; raises AssertionError on a broken promise.
-    Returns (finished, message): message is the refusal or failure the bake reported, if any."""
+    """Builds and bakes the scene of `seed` with the add-on loaded; raises AssertionError on a broken
+    promise. Returns (finished, message): message is the refusal or failure the bake reported, if any."""
+    writeback = load_package().writeback
     obs = build(seed, preset)
     for ob in obs:
-        _paint_old(ob)
+        writeback.write_mesh(ob.data, np.full((len(ob.data.loops), 4), OLD, np.float32))
     try:
         finished = bpy.ops.radiosity.bake() == {'FINISHED'}
         message = None
@@ -154,7 +142,7 @@ def bake_and_check(seed, preset='DRAFT'):
         finished, message = False, str(e)
     if finished:
         for ob in obs:
-            c = _colours(ob)
+            c = writeback.read_mesh(ob.data)
             assert c is not None, f"seed {seed}: {ob.name} has no Radiosity attribute"
             assert np.isfinite(c).all(), f"seed {seed}: {ob.name} has non-finite colours"
             assert (c >= 0).all(), f"seed {seed}: {ob.name} has negative colours"
@@ -163,13 +151,11 @@ def bake_and_check(seed, preset='DRAFT'):
     assert message is not None and any(f"'{n}'" in message or n in message for n in names), \
         f"seed {seed}: the failure names no object: {message}"
     for ob in obs:
-        assert np.all(_colours(ob) == OLD), f"seed {seed}: the failed bake changed {ob.name}'s colours"
+        assert np.all(writeback.read_mesh(ob.data) == OLD), f"seed {seed}: the failed bake changed {ob.name}'s colours"
     return False, message
 
 
 def load_addon():
-    sys.path.insert(0, os.path.join(HERE, "addon"))
-    from conftest import load_package
     pkg = load_package()
     pkg.register()
     return pkg

@@ -3,6 +3,8 @@ faces, and the bake says which object holds them."""
 import bpy
 import numpy as np
 
+from conftest import load_package
+
 
 def bake_floor_and_panel(copies):
     """A floor under a panel of `copies` stacked quads (separate vertices, one mesh), a lamp between."""
@@ -24,14 +26,7 @@ def bake_floor_and_panel(copies):
     scene.collection.objects.link(lamp)
     scene.radiosity.preset = 'DEFAULT'
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
-    return scene, [colours(ob) for ob in obs]
-
-
-def colours(ob):
-    attr = ob.data.color_attributes["Radiosity"]
-    values = np.empty(len(attr.data) * 4, np.float32)
-    attr.data.foreach_get("color", values)
-    return values.reshape(-1, 4)[:, :3]
+    return scene, [load_package().writeback.read_mesh(ob.data)[:, :3] for ob in obs]
 
 
 def test_five_stacked_quads_bake_as_one(addon):
