@@ -4,7 +4,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(blender python3-numpy pybind11-dev libembree-dev libosd-dev libglm-dev python3-dev
-          python3-pytest libgtest-dev cmake g++ make)
+          python3-pytest python3-distributed libgtest-dev cmake g++ make)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
