@@ -38,7 +38,10 @@ class FarmBake:
         if not bpy.data.filepath:
             raise BakeError("the farm's workers open the saved .blend: save the file first")
         # Saved whether it looks changed or not: scripts' edits in background mode leave no mark.
-        bpy.ops.wm.save_mainfile()
+        try:
+            bpy.ops.wm.save_mainfile()
+        except RuntimeError as e:
+            raise BakeError(f"the farm's workers open the saved .blend, and saving it failed: {e}") from e
         report({'INFO'}, f"Radiosity: saved {bpy.data.filepath} for the farm's workers")
         self.scene_name = scene.name
         self.frames = list(frames)

@@ -46,8 +46,11 @@ def say(**message):
 
 def bake(job, cancelled):
     """Submit and wait; the bake_stats of the whole bake and the chunks' count, or None if cancelled."""
-    import cloudpickle
-    from distributed import Client, Event
+    try:
+        import cloudpickle
+        from distributed import Client, Event
+    except ImportError as e:
+        raise RuntimeError(f"{e}: the farm needs Dask's distributed scheduler (python3-distributed)") from e
 
     import bake_stats
     import farm_task

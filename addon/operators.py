@@ -249,12 +249,9 @@ class _Bake:
             self._cleanup(context)
             self.report({'ERROR'}, f"Radiosity: {e}")
             return {'CANCELLED'}
-        n = len(self._frames)
-        context.window_manager.progress_update(run.done / n)
-        if context.workspace is not None:
-            context.workspace.status_text_set(f"Radiosity farm: {run.done} of {n} frames baked, "
-                                              f"{run.chunks} chunks  (Esc to cancel)")
-        for area in context.screen.areas:        # the panel's count of frames done
+        context.window_manager.progress_update(run.done / len(self._frames))
+        self._status(context, 0.0, 1.0)
+        for area in context.screen.areas if context.screen is not None else ():   # the panel's frame count
             if area.type in {'PROPERTIES', 'VIEW_3D'}:
                 area.tag_redraw()
         if not finished:
@@ -298,9 +295,12 @@ class _Bake:
 
     def _status(self, context, fraction, residual):
         n = len(self._frames)
-        text = (f"Radiosity: {100 * fraction:.0f}%  residual {residual:.2e}"
-                + (f"  frame {self._frames[self._index]} ({self._index + 1}/{n})" if self.animation else "")
-                + "  (Esc to cancel)")
+        if self._farm is not None:
+            text = f"Radiosity farm: {self._farm.done} of {n} frames baked, {self._farm.chunks} chunks"
+        else:
+            text = (f"Radiosity: {100 * fraction:.0f}%  residual {residual:.2e}"
+                    + (f"  frame {self._frames[self._index]} ({self._index + 1}/{n})" if self.animation else ""))
+        text += "  (Esc to cancel)"
         if context.area is not None:
             context.area.header_text_set(text)
         if context.workspace is not None:
