@@ -20,6 +20,7 @@ import psutil
 import pytest
 
 from conftest import ROOT, SAMPLES, load_engine, load_package
+from test_addon import modal_bake
 
 load_engine()   # when collected: a missing or broken engine fails the run (conftest.load_engine)
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
@@ -102,8 +103,21 @@ def check_frames(addon, scene, one_machine):
 
 
 def test_farm_frames_equal_the_one_machine_bake(addon, local_farm, one_machine, tmp_path):
+    """Through the UI's path (modal, a timer polling the farm): the panel's count of frames done grows
+    to every frame, and the frames are Bake Animation's results."""
     scene = open_copy(tmp_path, local_farm[0])
-    assert bpy.ops.radiosity.bake_animation() == {'FINISHED'}
+    counts = []
+
+    def watch(op):
+        counts.append(addon.farm.progress[scene.name][0])
+        time.sleep(0.05)
+        return False
+    result, reports, context = modal_bake(addon, animation=True, stop=watch)
+    assert result == {'FINISHED'}, reports
+    frames = FRAMES[1] - FRAMES[0] + 1
+    assert counts == sorted(counts) and counts[-1] == frames and any(0 < c < frames for c in counts)
+    assert scene.name not in addon.farm.progress
+    assert context.window_manager.timers == 0 and context.window_manager.progress is None
     check_frames(addon, scene, one_machine)
     # One file a frame and object in the cache folder beside the .blend, read by numpy as they are.
     folder = addon.farm_cache.folder_for(bpy.data.filepath)
@@ -155,21 +169,21 @@ def test_a_worker_killed_mid_bake_has_its_chunk_run_again(addon, local_farm, one
     check_frames(addon, scene, one_machine)
 
 
-def test_cancel_stops_the_farm_tasks(addon, local_farm, tmp_path):
-    """Esc's path (FarmBake.cancel): the chunks' Blenders end and no more frames come."""
+def test_esc_cancels_the_farm_tasks(addon, local_farm, tmp_path):
+    """Esc while chunks bake: their Blenders end, no more frames come, nothing is loaded."""
     scene = open_copy(tmp_path, local_farm[0])
-    scene.radiosity.preset = 'DEFAULT'                     # slow enough to cancel mid-chunk
-    run = addon.farm.FarmBake(scene, list(range(FRAMES[0], FRAMES[1] + 1)), lambda *_: None)
-    deadline = time.perf_counter() + 120
-    while not any(workers(local_farm[1]).values()) and time.perf_counter() < deadline:
-        time.sleep(0.05)
-    assert not run.poll()
-    run.cancel()
+    scene.radiosity.preset = 'DEFAULT'                     # slow enough to press Esc mid-chunk
+    result, reports, context = modal_bake(addon, animation=True,
+                                          stop=lambda op: any(workers(local_farm[1]).values()))
+    assert result == {'CANCELLED'} and "cancelled" in reports[-1][1], reports
     deadline = time.perf_counter() + 10
     while any(workers(local_farm[1]).values()) and time.perf_counter() < deadline:
         time.sleep(0.1)
     assert not any(workers(local_farm[1]).values())
-    done = addon.farm_cache.frames_done(run.cache, run.frames)
+    folder = addon.farm_cache.folder_for(bpy.data.filepath)
+    frames = range(FRAMES[0], FRAMES[1] + 1)
+    done = addon.farm_cache.frames_done(folder, frames)
     time.sleep(1.0)
-    assert addon.farm_cache.frames_done(run.cache, run.frames) == done and len(done) < len(run.frames)
-    assert scene.name not in addon.farm.progress
+    assert addon.farm_cache.frames_done(folder, frames) == done and len(done) < len(frames)
+    assert scene.name not in addon.farm.progress and scene.name not in addon.operators.frame_cache
+    assert context.window_manager.timers == 0 and context.window_manager.progress is None
