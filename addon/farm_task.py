@@ -3,11 +3,11 @@ and writes its frames into the cache folder; the task returns what the chunk rep
 time (Blender's start and the file's load included).
 
 bpy cannot run inside a Dask worker, hence the subprocess. The worker needs Blender on its PATH and the
-add-on at the path the task names; it needs no copy of this module: the farm sends it by value
-(cloudpickle), so only numpy, distributed and the standard library are imported here.
+add-on at the path the task names; it needs no copy of this module: farm_client.py sends it by value
+(cloudpickle), so only distributed and the standard library are imported here.
 
-Cancelling: Dask cannot stop a running task, so the task polls a distributed.Event the Blender that
-submitted it sets (Esc) and kills its Blender. A worker that dies takes its Blender with it
+Cancelling: Dask cannot stop a running task, so the task polls a distributed.Event that farm_client.py
+sets (Esc in the Blender that submitted, or a chunk that failed) and kills its Blender. A worker that dies takes its Blender with it
 (PR_SET_PDEATHSIG): the scheduler runs the chunk again on another worker, and no orphan writes on.
 """
 import ctypes
