@@ -12,7 +12,7 @@ import threading
 
 import bpy
 
-from . import live_update, writeback
+from . import bake_stats, farm, live_update, writeback
 from .errors import BakeError
 from .job import BakeJob
 from .scene_diff import REBUILD_NOTE
@@ -65,8 +65,9 @@ def prepare_frame(context, frame, animation, base=None):
     return job
 
 
-def bake_frames(context, frames, animation, progress=None):
-    """Synchronous bake. progress(fraction, residual) -> False cancels.
+def bake_frames(context, frames, animation, progress=None, on_frame=None):
+    """Synchronous bake. progress(fraction, residual) -> False cancels; on_frame(frame, colours) as
+    each frame is solved (a farm's chunk writes it out).
     Returns (jobs, {frame: colours}) with colours None when cancelled. Raises BakeError.
     The first frame is solved in full, later frames incrementally on the same Solver."""
     jobs, results = [], {}
@@ -84,6 +85,8 @@ def bake_frames(context, frames, animation, progress=None):
             if not job.succeeded:
                 return jobs, None
             results[f] = job.colours()
+            if on_frame is not None:
+                on_frame(f, results[f])
     finally:
         if animation and scene.frame_current != start_frame:
             scene.frame_set(start_frame)
@@ -91,7 +94,16 @@ def bake_frames(context, frames, animation, progress=None):
 
 
 def finish(context, jobs, results, animation, report):
-    """Write the colours (current frame), fill the cache and scene.radiosity's results."""
+    """Write the colours (current frame), fill the cache and scene.radiosity's results. The last
+    frame's Solver becomes the scene's live one (live update continues from it)."""
+    written = conclude(context, results, bake_stats.summary(jobs), animation, report)
+    live_update.live_jobs[context.scene.name] = jobs[-1]
+    return written
+
+
+def conclude(context, results, stats, animation, report):
+    """finish() for colours solved anywhere (bake_stats `stats`): a farm's come from its workers,
+    whose Solvers stay there, so the scene has no live Solver after it."""
     scene = context.scene
     props = scene.radiosity
     frame = scene.frame_current
@@ -114,34 +126,26 @@ def finish(context, jobs, results, animation, report):
     if colours is None:                          # current frame outside the baked range
         colours = results[min(results, key=lambda f: abs(f - frame))]
     written, messages = writeback.write_all(colours, scene)
-    # The last frame's Solver becomes the scene's live one (live update continues from it).
     live_update.forget(scene.name)
-    live_update.live_jobs[scene.name] = jobs[-1]
     live_update.remember_written(scene, colours, written)
     live_update.mark_served(scene, frame if frame in results and scene.name in frame_cache else None)
-    warnings = []
-    for j in jobs:
-        warnings += j.warnings
-    warnings += messages
-    last = jobs[-1]
-    st = last.stats
-    props.last_seconds = sum(j.seconds for j in jobs)
-    props.last_residual = float(max(j.stats["residual"] for j in jobs))
-    props.last_patches = int(st.get("patches", 0))
-    props.last_points = int(st.get("points", 0))
-    props.last_shots = int(sum(j.shots for j in jobs))
-    props.last_rays = float(sum(j.rays for j in jobs))
-    props.last_relaxation = float(jobs[0].stats.get("relaxation", 0.0))
-    props.last_effects = last.effects
-    props.last_frames = len(jobs)
+    warnings = stats["warnings"] + messages
+    props.last_seconds = stats["seconds"]
+    props.last_residual = stats["residual"]
+    props.last_patches = stats["patches"]
+    props.last_points = stats["points"]
+    props.last_shots = stats["shots"]
+    props.last_rays = stats["rays"]
+    props.last_relaxation = stats["relaxation"]
+    props.last_effects = stats["effects"]
+    props.last_frames = stats["frames"]
     props.has_results = True
-    if not all(j.stats.get("converged", True) for j in jobs):
+    if not stats["converged"]:
         warnings.append("the solve stopped before reaching the threshold (see Residual)")
     shown = _report_all(report, warnings)
     props.last_warnings = "\n".join(shown)
-    incremental = [j for j in jobs if j.incremental]
     report({'INFO'}, f"Radiosity: baked {len(written)} object(s)"
-           + (f", {len(jobs)} frames ({len(incremental)} incremental)" if animation else "")
+           + (f", {stats['frames']} frames ({stats['incremental']} incremental)" if animation else "")
            + f" in {props.last_seconds:.2f} s; simulated: {props.last_effects}")
     return written
 
@@ -155,6 +159,17 @@ class _Bake:
         return context.scene is not None
 
     def execute(self, context):
+        if self.animation and farm.wanted(context.scene):
+            run = self._farm_start(context)
+            if run is None:
+                return {'CANCELLED'}
+            try:
+                run.wait()
+            except BakeError as e:
+                run.cancel()
+                self.report({'ERROR'}, f"Radiosity: {e}")
+                return {'CANCELLED'}
+            return self._farm_finish(context, run)
         with live_update.suspended():
             try:
                 jobs, results = bake_frames(context, _frames(context.scene, self.animation), self.animation)
@@ -172,6 +187,12 @@ class _Bake:
         scene = context.scene
         self._frames = _frames(scene, self.animation)
         self._index = 0
+        self._farm = None
+        if self.animation and farm.wanted(scene):
+            self._farm = self._farm_start(context)
+            if self._farm is None:
+                return {'CANCELLED'}
+            return self._modal_begin(context)
         self._jobs, self._results = [], {}
         self._start_frame = scene.frame_current
         self._job = None
@@ -181,12 +202,62 @@ class _Bake:
         if not self._start(context):
             self._end()
             return {'CANCELLED'}
+        return self._modal_begin(context)
+
+    def _modal_begin(self, context):
         wm = context.window_manager
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0.0, 1.0)
         wm.modal_handler_add(self)
         self._status(context, 0.0, 1.0)
         return {'RUNNING_MODAL'}
+
+    # ---------------------------------------------------------------- farm (farm.py)
+    def _farm_start(self, context):
+        """The farm bake of the frame range, submitted; None when it could not start (reported)."""
+        try:
+            return farm.FarmBake(context.scene, _frames(context.scene, True), self.report)
+        except BakeError as e:
+            self.report({'ERROR'}, f"Radiosity: {e}")
+            return None
+
+    def _farm_finish(self, context, run):
+        try:
+            results, stats = run.collect()
+        except BakeError as e:
+            self.report({'ERROR'}, f"Radiosity: {e}")
+            return {'CANCELLED'}
+        with live_update.suspended():
+            conclude(context, results, stats, True, self.report)
+        self.report({'INFO'}, f"Radiosity: the farm baked {len(results)} frames in {run.chunks} chunks "
+                              f"in {run.seconds:.1f} s")
+        return {'FINISHED'}
+
+    def _farm_modal(self, context, event):
+        run = self._farm
+        if event.type == 'ESC' and event.value == 'PRESS':
+            run.cancel()
+            self._cleanup(context)
+            self.report({'WARNING'}, "Radiosity: farm bake cancelled; colours unchanged")
+            return {'CANCELLED'}
+        if event.type != 'TIMER':
+            return {'PASS_THROUGH'}
+        try:
+            finished = run.poll()
+        except BakeError as e:
+            run.cancel()
+            self._cleanup(context)
+            self.report({'ERROR'}, f"Radiosity: {e}")
+            return {'CANCELLED'}
+        context.window_manager.progress_update(run.done / len(self._frames))
+        self._status(context, 0.0, 1.0)
+        for area in context.screen.areas if context.screen is not None else ():   # the panel's frame count
+            if area.type in {'PROPERTIES', 'VIEW_3D'}:
+                area.tag_redraw()
+        if not finished:
+            return {'PASS_THROUGH'}
+        self._cleanup(context)
+        return self._farm_finish(context, run)
 
     def _end(self):
         if getattr(self, "_suspended", False):
@@ -224,9 +295,12 @@ class _Bake:
 
     def _status(self, context, fraction, residual):
         n = len(self._frames)
-        text = (f"Radiosity: {100 * fraction:.0f}%  residual {residual:.2e}"
-                + (f"  frame {self._frames[self._index]} ({self._index + 1}/{n})" if self.animation else "")
-                + "  (Esc to cancel)")
+        if self._farm is not None:
+            text = f"Radiosity farm: {self._farm.done} of {n} frames baked, {self._farm.chunks} chunks"
+        else:
+            text = (f"Radiosity: {100 * fraction:.0f}%  residual {residual:.2e}"
+                    + (f"  frame {self._frames[self._index]} ({self._index + 1}/{n})" if self.animation else ""))
+        text += "  (Esc to cancel)"
         if context.area is not None:
             context.area.header_text_set(text)
         if context.workspace is not None:
@@ -245,7 +319,7 @@ class _Bake:
 
     def modal(self, context, event):
         try:
-            result = self._modal(context, event)
+            result = self._farm_modal(context, event) if self._farm is not None else self._modal(context, event)
         except Exception as e:   # noqa: BLE001 -- a fault of ours must not leave the timer and live update held
             self._stop(context)
             self.report({'ERROR'}, _failure(e))
@@ -255,7 +329,11 @@ class _Bake:
         return result
 
     def _stop(self, context):
-        """Ends the running frame's solve and puts the UI and the frame back, writing nothing."""
+        """Ends the running frame's solve (or farm bake) and puts the UI and the frame back, writing nothing."""
+        if self._farm is not None:
+            self._farm.cancel()
+            self._cleanup(context)
+            return
         if self._job is not None:
             self._job.cancel()
         if self._thread is not None:

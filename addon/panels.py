@@ -1,7 +1,7 @@
 """Render properties panel and 3D view sidebar panel (tab "Radiosity")."""
 import bpy
 
-from . import estimate, live_update
+from . import estimate, farm, live_update
 
 
 def _human(n):
@@ -40,6 +40,10 @@ def draw_main(layout, context):
     col.operator("radiosity.clear", icon='X')
     layout.prop(props, "live_update")
     layout.prop(props, "store_frames")
+    layout.prop(props, "farm_scheduler")
+    running = farm.progress.get(scene.name)
+    if running is not None:
+        layout.label(text=f"Farm: {running[0]} of {running[1]} frames baked", icon='NETWORK_DRIVE')
     info = live_update.last_sync.get(scene.name)
     if props.live_update and info:
         layout.label(text=live_status(info), icon='TIME')

@@ -69,6 +69,11 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
         name="Keep Frames in File", default=True,
         description="Save the frames of Bake Animation in the .blend, so that the animation renders "
                     "with its lighting after reopening (e.g. blender -b file.blend -a)")
+    farm_scheduler: StringProperty(
+        name="Farm Scheduler", default="",
+        description="Address of a Dask scheduler (tcp://host:8786) whose workers bake Bake Animation's "
+                    "frames in chunks, on the saved .blend, into a cache folder beside it (docs/farm.md). "
+                    "Empty: this machine alone")
 
     # results of the last bake (written by the operators)
     last_seconds: FloatProperty(name="Time", default=0.0, precision=2, unit='TIME_ABSOLUTE')
