@@ -29,6 +29,12 @@ def wanted(scene):
     return bool(scene.radiosity.farm_scheduler.strip())
 
 
+
+def system_python():
+    """The interpreter of the Python library Blender runs (Debian's, where python3-distributed is).
+    Not sys.executable: Blender takes that from PATH, where a pyenv shim or a virtualenv may come first."""
+    return os.path.join(sys.prefix, "bin", f"python{sys.version_info.major}.{sys.version_info.minor}")
+
 class FarmBake:
     """One farm bake of `frames` of `scene`: submitted on construction; poll() until it says done,
     then collect(); cancel() stops the farm's tasks. Raises BakeError (unsaved file, no scheduler, a
@@ -51,8 +57,7 @@ class FarmBake:
                "frames": self.frames, "cache": self.cache}
         client = os.path.join(os.path.dirname(os.path.abspath(__file__)), "farm_client.py")
         self.started = time.perf_counter()
-        # Blender's Python is the system's on Debian, where python3-distributed is.
-        self.proc = subprocess.Popen([sys.executable, client, json.dumps(job)], stdin=subprocess.PIPE,
+        self.proc = subprocess.Popen([system_python(), client, json.dumps(job)], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, text=True)
         self.messages = {}
         self._reader = threading.Thread(target=self._read, daemon=True)
