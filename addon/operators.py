@@ -12,7 +12,7 @@ import threading
 
 import bpy
 
-from . import live_update, writeback
+from . import lightmap, live_update, writeback
 from .errors import BakeError
 from .job import BakeJob
 from .scene_diff import REBUILD_NOTE
@@ -114,6 +114,8 @@ def finish(context, jobs, results, animation, report):
     if colours is None:                          # current frame outside the baked range
         colours = results[min(results, key=lambda f: abs(f - frame))]
     written, messages = writeback.write_all(colours, scene)
+    if props.lightmaps and not animation:
+        messages += lightmap.bake(jobs[-1], props)[1]
     # The last frame's Solver becomes the scene's live one (live update continues from it).
     live_update.forget(scene.name)
     live_update.live_jobs[scene.name] = jobs[-1]
@@ -334,4 +336,24 @@ class RADIOSITY_OT_clear(bpy.types.Operator):
         return {'FINISHED'}
 
 
-classes = (RADIOSITY_OT_bake, RADIOSITY_OT_bake_animation, RADIOSITY_OT_clear)
+class RADIOSITY_OT_save_lightmaps(bpy.types.Operator):
+    """Write the scene's lightmaps ('<object>_Radiosity' images) as OpenEXR files into a folder"""
+    bl_idname = "radiosity.save_lightmaps"
+    bl_label = "Save Lightmaps as EXR"
+    directory: bpy.props.StringProperty(name="Folder", subtype='DIR_PATH')
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {'RUNNING_MODAL'}
+
+    def execute(self, context):
+        images = lightmap.images_of(context.scene)
+        if not images:
+            self.report({'WARNING'}, "Radiosity: no lightmaps to save (bake with Lightmaps on)")
+            return {'CANCELLED'}
+        paths = lightmap.save_exr(images, self.directory)
+        self.report({'INFO'}, f"Radiosity: saved {len(paths)} lightmap(s) to {self.directory}")
+        return {'FINISHED'}
+
+
+classes = (RADIOSITY_OT_bake, RADIOSITY_OT_bake_animation, RADIOSITY_OT_clear, RADIOSITY_OT_save_lightmaps)
