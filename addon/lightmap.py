@@ -12,9 +12,10 @@ import os
 import bpy
 import numpy as np
 
-from . import texel_padding, texel_raster, uv_charts
+from . import texel_filter, texel_padding, texel_raster, uv_charts
 
 IMAGE_SUFFIX = "_Radiosity"
+AVERAGED_AT_ONCE = 65536   # texels averaged in one engine call: bounds the memory of their samples
 
 
 def image_name(object_name):
@@ -56,17 +57,29 @@ def _triangles(me, layer):
 
 def texels(solver, index, positions, me, layer, width, height):
     """(height, width, 4) float32 RGBA: each covered texel's light from `solver` (object `index`,
-    whose input mesh has `positions`, object space, and me's faces), the rest padded, alpha 1.
+    whose input mesh has `positions`, object space, and me's faces), averaged over its footprint
+    as Cycles' bake does where the light changes (texel_filter.py), the rest padded, alpha 1.
     Alpha is 1 on padding too: images are stored with colour premultiplied by alpha, so a padded
     texel of alpha 0 would lose its colour when packed or saved."""
     uv, faces, vertices = _triangles(me, layer)
+    corners = positions[vertices]
+
+    def light(triangle, bary):
+        at = np.einsum("nk,nkj->nj", bary, corners[triangle])
+        return solver.surface_radiance(index, faces[triangle].astype(np.int32), np.ascontiguousarray(at))
+
     texel, triangle, bary = texel_raster.rasterise(uv, width, height)
-    at = np.einsum("nk,nkj->nj", bary, positions[vertices[triangle]])
-    light = solver.surface_radiance(index, faces[triangle].astype(np.int32), np.ascontiguousarray(at))
     rgb = np.zeros((height * width, 3), np.float32)
-    rgb[texel] = light
+    rgb[texel] = light(triangle, bary)
     covered = np.zeros(height * width, bool)
     covered[texel] = True
+    edge = texel_filter.edges(rgb.reshape(height, width, 3), covered.reshape(height, width)).ravel()[texel]
+    if edge.any():
+        steps = texel_filter.barycentric_steps(uv * (width, height))
+        for part in np.array_split(np.flatnonzero(edge), max(1, int(edge.sum()) // AVERAGED_AT_ONCE)):
+            points = texel_filter.footprint(bary[part], steps[triangle[part]])
+            values = light(np.repeat(triangle[part], points.shape[1]), points.reshape(-1, 3))
+            rgb[texel[part]] = values.reshape(points.shape[0], points.shape[1], 3).mean(axis=1)
     rgb = texel_padding.pad(rgb.reshape(height, width, 3), covered.reshape(height, width))
     return np.concatenate([rgb, np.ones((height, width, 1), np.float32)], axis=2)
 

@@ -97,6 +97,8 @@ class PatchFinder {
 
 // How near a patch corner, in the patch's (u, v), a point takes after the corner's receiving point.
 constexpr double kCornerReach = 0.01;
+// Points whose direct light one batch of rays gathers: a lamp's shadow rays go to Embree together.
+constexpr int kBlock = 64;
 
 }  // namespace
 
@@ -114,37 +116,60 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
       throw std::invalid_argument("surface_radiance: face " + std::to_string(f) + " of object '" + desc.name +
                                   "', which has " + std::to_string(face_count));
   int count = int(faces.size());
-  std::vector<float> out(3 * size_t(count), 0.0f);
-  if (!desc.visible || count == 0) return out;  // a hidden object takes no part: no light, no emission
+  // A hidden object takes no part: no light, no emission.
+  if (!desc.visible || count == 0) return std::vector<float>(3 * size_t(count), 0.0f);
   return impl_->workers.run([&] {
     PatchFinder finder(s.mesh, obj, face_count);
     std::vector<Source> sources = s.injected ? s.direct_sources() : std::vector<Source>{};
+    // Per point: where it lies and what it reflects, then its direct light. Its light so far is
+    // emission + reflectance x reflected; `at` is where it gathers (normal zero: on no patch).
+    std::vector<ReceiverPoint> at(count);
+    std::vector<dvec3> reflectance(count, dvec3(0.0)), light(count, dvec3(0.0));
     parallel_for(0, count, 64, [&](int i) {
       dvec3 x = dvec3(desc.transform * glm::dvec4(positions[i], 1.0)) - s.mesh.origin;
-      auto [q, at] = finder.find(faces[i], x);
+      auto [q, on] = finder.find(faces[i], x);
       if (q < 0 || s.mesh.patches[q].area == 0) return;
       const Patch& patch = s.mesh.patches[q];
-      double w[4] = {(1 - at.u) * (1 - at.v), at.u * (1 - at.v), at.u * at.v, (1 - at.u) * at.v};
-      dvec3 y(0.0), normal(0.0), emission(0.0), reflectance(0.0), reflected(0.0);
+      double w[4] = {(1 - on.u) * (1 - on.v), on.u * (1 - on.v), on.u * on.v, (1 - on.u) * on.v};
+      dvec3 y(0.0), normal(0.0), emission(0.0), reflected(0.0);
       for (int c = 0; c < 4; ++c) {
         int point = patch.point[c];
         y += w[c] * s.mesh.vertices[patch.vertex[c]];
         normal += w[c] * s.mesh.points[point].normal;
         emission += w[c] * s.mesh.emission[4 * q + c];
-        reflectance += w[c] * s.mesh.reflectance[4 * q + c];
+        reflectance[i] += w[c] * s.mesh.reflectance[4 * q + c];
         reflected += w[c] * s.reflected_front[point];
       }
-      normal = glm::length(normal) > 0 ? glm::normalize(normal) : patch.normal;
       // Right by a patch corner the point slides onto the corner's receiving point, which is nudged
       // into its patches (patch_mesh.cpp): at a face corner a texel then reads what the corner does.
-      int c = (at.u < 0.5 ? (at.v < 0.5 ? 0 : 3) : (at.v < 0.5 ? 1 : 2));
-      double off = std::max(std::min(at.u, 1 - at.u), std::min(at.v, 1 - at.v));
+      int c = (on.u < 0.5 ? (on.v < 0.5 ? 0 : 3) : (on.v < 0.5 ? 1 : 2));
+      double off = std::max(std::min(on.u, 1 - on.u), std::min(on.v, 1 - on.v));
       double onto = std::max(0.0, 1.0 - off / kCornerReach);
-      y += onto * (s.mesh.points[patch.point[c]].position - y);
-      dvec3 direct = sources.empty() ? dvec3(0.0) : s.light_at(sources, y, normal)[0];
-      dvec3 b = glm::max(emission + reflectance * (direct + reflected), dvec3(0.0));  // round-off negatives
-      for (int k = 0; k < 3; ++k) out[3 * size_t(i) + k] = float(b[k]);
+      at[i].position = y + onto * (s.mesh.points[patch.point[c]].position - y);
+      at[i].normal = glm::length(normal) > 0 ? glm::normalize(normal) : patch.normal;
+      light[i] = emission + reflectance[i] * reflected;
     });
+    // Direct light, a block of points to a batch of rays: each gathers under an index past every
+    // receiving point's, so no patch takes it for one of its corners (as Impl::light_at).
+    if (!sources.empty()) {
+      int base = int(s.mesh.points.size());
+      parallel_for(0, (count + kBlock - 1) / kBlock, 1, [&](int b) {
+        int first = b * kBlock, last = std::min(count, first + kBlock);
+        std::vector<dvec3> front(last - first, dvec3(0.0)), back(last - first, dvec3(0.0));
+        {
+          OcclusionBatch batch(*s.vis, front.data(), back.data(), base + first);
+          for (int i = first; i < last; ++i)
+            if (at[i].normal != dvec3(0.0))
+              for (const Source& source : sources) source.gather(base + i, at[i], batch);
+        }  // flushed
+        for (int i = first; i < last; ++i) light[i] += reflectance[i] * front[i - first];
+      });
+    }
+    std::vector<float> out(3 * size_t(count), 0.0f);
+    for (int i = 0; i < count; ++i) {
+      dvec3 b = glm::max(light[i], dvec3(0.0));  // round-off negatives
+      for (int k = 0; k < 3; ++k) out[3 * size_t(i) + k] = float(b[k]);
+    }
     return out;
   });
 }
