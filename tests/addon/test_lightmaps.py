@@ -230,3 +230,15 @@ def test_lightmaps_agree_with_cycles_image_bake(addon):
         error = np.sqrt(np.mean((ours[baked] - cycles[baked]) ** 2)) / np.mean(cycles[baked])
         print(f"{name}: relative RMS {100 * error:.2f}% over {baked.sum()} texels")
         assert error < TARGET_RMS
+
+
+def test_a_failed_bake_leaves_the_lightmaps_as_they_were(addon):
+    scene, floor = lamp_over_floor(addon)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    before = pixels(bpy.data.images["Floor_Radiosity"]).copy()
+    bpy.data.objects["Lamp"].location.z = 1.5       # other light, had the bake gone through
+    scene.radiosity.max_patches = 1000
+    scene.radiosity.patch_size_relative = 1e-3
+    with pytest.raises(RuntimeError, match="past the limit of 1000"):
+        bpy.ops.radiosity.bake()
+    np.testing.assert_array_equal(pixels(bpy.data.images["Floor_Radiosity"]), before)
