@@ -10,7 +10,7 @@ map: the floor over the whole square, the box's faces in a 3 x 2 grid of cells, 
 Images start at -1: Cycles bakes the texels whose centres lie in a face and, with no margin,
 leaves the rest, so -1 marks a texel no face covers.
 
-Writes lightmap_box.npz: "<object>" (H, W, 3) float32 rows from the bottom, as Blender stores
+Writes lightmaps/lightmap_box.npz: "<object>" (H, W, 3) float32 rows from the bottom, as Blender stores
 pixels; "samples", "seconds", "blender_version". Settings as DESIGN.md section 4 (cycles_settings.py).
 """
 import os
@@ -24,7 +24,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import cycles_settings  # noqa: E402
 
-PATH = os.path.join(HERE, "lightmap_box.npz")
+# In a folder of its own: the .npz files beside this script are the sample scenes' corner references.
+PATH = os.path.join(HERE, "lightmaps", "lightmap_box.npz")
 SIZES = {"Floor": (64, 64), "Box": (48, 32)}   # (width, height) of each object's image
 LAMP = ((-0.9, -0.6, 1.8), 400.0)              # location, watts
 
