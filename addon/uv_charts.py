@@ -2,8 +2,9 @@
 made with Blender's Lightmap Pack. The mesh's active and render UV maps stay what they were."""
 UV_MAP = "RadiosityUV"
 
-# Texels of margin round each chart, in the image the map is made for: room for padding, so that
-# bilinear filtering and the first mip levels beside one chart read no other chart's light.
+# Lightmap Pack's margin round each chart, in texels of the image the map is made for (charts lie
+# twice that apart): room for padding, so that bilinear filtering and the first mip levels beside
+# one chart read no other chart's light.
 MARGIN_TEXELS = 4
 
 
