@@ -15,7 +15,7 @@ import numpy as np
 # foot. The mean of a light linear across the footprint is its centre's value; a bend of CONTRAST
 # moves the mean by about CONTRAST / 100 (the footprint's variance, a 48th of a texel squared, per
 # axis), so a lamp's falloff across a texel is left at its centre.
-CONTRAST = 0.005
+CONTRAST = 0.02
 SAMPLES = 8   # offsets per axis: a step across the footprint lands within 1 / (2 SAMPLES) of its mean
 FOOTPRINT = 0.5  # the side of the square the samples cover, in texels
 

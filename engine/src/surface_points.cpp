@@ -56,7 +56,10 @@ class PatchFinder {
     for (int q = obj.patch_begin; q < obj.patch_end; ++q) {
       dvec3 lo(INFINITY), hi(-INFINITY);
       for (int v : mesh.patches[q].vertex) lo = glm::min(lo, mesh.vertices[v]), hi = glm::max(hi, mesh.vertices[v]);
-      glm::ivec3 a = cell(lo), b = cell(hi);
+      // Widened a little: a flat patch lying on a cell boundary (a floor at z = 0) is found from
+      // points a rounding off its plane on either side.
+      dvec3 pad(1e-6 * cell_);
+      glm::ivec3 a = cell(lo - pad), b = cell(hi + pad);
       for (int i = a.x; i <= b.x; ++i)
         for (int j = a.y; j <= b.y; ++j)
           for (int k = a.z; k <= b.z; ++k) grid_[key({i, j, k})].push_back(q);
