@@ -12,7 +12,7 @@ import threading
 
 import bpy
 
-from . import bake_stats, farm, live_update, writeback
+from . import bake_stats, farm, lightmap, live_update, writeback
 from .errors import BakeError
 from .job import BakeJob
 from .scene_diff import REBUILD_NOTE
@@ -96,7 +96,11 @@ def bake_frames(context, frames, animation, progress=None, on_frame=None):
 def finish(context, jobs, results, animation, report):
     """Write the colours (current frame), fill the cache and scene.radiosity's results. The last
     frame's Solver becomes the scene's live one (live update continues from it)."""
-    written = conclude(context, results, bake_stats.summary(jobs), animation, report)
+    stats = bake_stats.summary(jobs)
+    props = context.scene.radiosity
+    if props.lightmaps and not animation:
+        stats["warnings"] += lightmap.bake(jobs[-1], props)[1]
+    written = conclude(context, results, stats, animation, report)
     live_update.live_jobs[context.scene.name] = jobs[-1]
     return written
 
@@ -412,4 +416,24 @@ class RADIOSITY_OT_clear(bpy.types.Operator):
         return {'FINISHED'}
 
 
-classes = (RADIOSITY_OT_bake, RADIOSITY_OT_bake_animation, RADIOSITY_OT_clear)
+class RADIOSITY_OT_save_lightmaps(bpy.types.Operator):
+    """Write the scene's lightmaps ('<object>_Radiosity' images) as OpenEXR files into a folder"""
+    bl_idname = "radiosity.save_lightmaps"
+    bl_label = "Save Lightmaps as EXR"
+    directory: bpy.props.StringProperty(name="Folder", subtype='DIR_PATH')
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {'RUNNING_MODAL'}
+
+    def execute(self, context):
+        images = lightmap.images_of(context.scene)
+        if not images:
+            self.report({'WARNING'}, "Radiosity: no lightmaps to save (bake with Lightmaps on)")
+            return {'CANCELLED'}
+        paths = lightmap.save_exr(images, self.directory)
+        self.report({'INFO'}, f"Radiosity: saved {len(paths)} lightmap(s) to {self.directory}")
+        return {'FINISHED'}
+
+
+classes = (RADIOSITY_OT_bake, RADIOSITY_OT_bake_animation, RADIOSITY_OT_clear, RADIOSITY_OT_save_lightmaps)

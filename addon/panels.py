@@ -40,6 +40,13 @@ def draw_main(layout, context):
     col.operator("radiosity.clear", icon='X')
     layout.prop(props, "live_update")
     layout.prop(props, "store_frames")
+    layout.prop(props, "lightmaps")
+    if props.lightmaps:
+        col = layout.column(align=True)
+        col.prop(props, "texel_density")
+        col.prop(props, "lightmap_min_size")
+        col.prop(props, "lightmap_max_size")
+        col.operator("radiosity.save_lightmaps", icon='EXPORT')
     layout.prop(props, "farm_scheduler")
     running = farm.progress.get(scene.name)
     if running is not None:

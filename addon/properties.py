@@ -74,6 +74,21 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
         description="Address of a Dask scheduler (tcp://host:8786) whose workers bake Bake Animation's "
                     "frames in chunks, on the saved .blend, into a cache folder beside it (docs/farm.md). "
                     "Empty: this machine alone")
+    lightmaps: BoolProperty(
+        name="Lightmaps", default=False,
+        description="Bake also writes an image '<object>_Radiosity' per lit mesh, in its UV map "
+                    "'RadiosityUV' (made with Lightmap Pack if missing): each texel the light at its own "
+                    "surface point, with shadows finer than the patches (packed into the .blend)")
+    texel_density: FloatProperty(
+        name="Texel Density", default=32.0, min=0.01, soft_max=1024.0, precision=1,
+        description="Texels per metre of a new lightmap's side, across the square root of the mesh's "
+                    "area (an existing image is written at its own size)")
+    lightmap_min_size: IntProperty(
+        name="Minimum Size", default=64, min=4, max=16384,
+        description="Smallest side of a new lightmap, in texels")
+    lightmap_max_size: IntProperty(
+        name="Maximum Size", default=2048, min=4, max=16384,
+        description="Largest side of a new lightmap, in texels")
 
     # results of the last bake (written by the operators)
     last_seconds: FloatProperty(name="Time", default=0.0, precision=2, unit='TIME_ABSOLUTE')

@@ -374,6 +374,16 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def("vertex_radiance",
            [](const Solver& s, int o) { return rows3(released([&] { return s.vertex_radiance(o); })); },
            py::arg("object"), "(N, 3) float32 mean of each input vertex's corners")
+      .def("surface_radiance",
+           [](const Solver& s, int o, const Array<int32_t>& faces, const Array<double>& positions) {
+             std::vector<int> f = flat(faces);
+             std::vector<dvec3> p = points(positions, "positions");
+             return rows3(released([&] { return s.surface_radiance(o, f, p); }));
+           },
+           py::arg("object"), py::arg("faces"), py::arg("positions"),
+           "(N, 3) float32 front-side outgoing radiance at points of the object's input faces: faces "
+           "(N,) int32, positions (N, 3) object space. Direct light gathered at each point, reflected "
+           "light interpolated from the solution")
       .def("refined",
            [](const Solver& s, int o) {
              Solver::Refined r = released([&] { return s.refined(o); });

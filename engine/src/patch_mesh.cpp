@@ -384,6 +384,7 @@ void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>
   PlacedObject placed = place(pm, mesh, std::move(refined), obj);
   set_geometry(pm, mesh, placed, obj);
   obj.corner_slot = corner_slots(mesh, placed.refined, obj);
+  obj.patch_face = placed.refined.quad_face;
   // A deforming object's flat faces keep their corners apart: faces that meet flat at a vertex now
   // may be bent apart later, and a point has one normal (refine_object refuses that).
   std::vector<int> apart(placed.normals.size(), -1);

@@ -57,6 +57,7 @@ struct ObjectPatches {
   Sphere enclosure;
   bool mirrored = false;  // transform flips handedness
   std::vector<int> corner_slot;  // per input face corner: patch * 4 + corner at that place
+  std::vector<int> patch_face;   // per patch (from patch_begin): the input face it came from
   // Some of its patches lie exactly on another object's, or another's on its (coincident_patches.h):
   // its corners read another object's light, or the other way round, so it cannot move or change
   // without a new patch mesh. Copies within the object move with it.

@@ -66,7 +66,7 @@ def test_register_round_trip(addon):
     addon.live_update.register_handlers()                            # idempotent
     assert sum(getattr(h, "__name__", "") == "on_frame_change" for h in bpy.app.handlers.frame_change_post) == 1
     assert addon.bl_info["category"] == "Lighting" and addon.bl_info["blender"][:2] == (3, 4)
-    assert bpy.context.scene.radiosity.preset == 'DEFAULT'
+    assert type(bpy.context.scene.radiosity).bl_rna.properties["preset"].default == 'DEFAULT'
 
 
 def test_preset_fills_knobs(addon):

@@ -102,11 +102,22 @@ def adding(solver):
     return lambda: solver.add(more)
 
 
+def texels(solver, floor):
+    """surface_radiance at 50,000 points of the left floor (grid(4, 4.0, -2.0): face ix * 4 + iy
+    holds the unit square at x = -4 + ix, y = -2 + iy), arguments made before the call."""
+    points = np.random.default_rng(0).uniform((-4.0, -2.0), (0.0, 2.0), (50000, 2))
+    cell = np.minimum(np.floor(points - (-4.0, -2.0)).astype(np.int32), 3)
+    faces = (cell[:, 0] * 4 + cell[:, 1]).astype(np.int32)
+    positions = np.c_[points, np.zeros(len(points))]
+    return lambda: solver.surface_radiance(floor, faces, positions)
+
+
 # Each makes the call, its arguments ready. Add comes last, as it changes the scene.
 CALLS = {
     "corner_radiance": lambda s, left, right: lambda: s.corner_radiance(left),
     "vertex_radiance": lambda s, left, right: lambda: s.vertex_radiance(right),
     "refined": lambda s, left, right: lambda: s.refined(left),
+    "surface_radiance": lambda s, left, right: texels(s, left),
     "add": lambda s, left, right: adding(s),
 }
 

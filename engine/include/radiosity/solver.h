@@ -97,6 +97,13 @@ class Solver {
   // setting (the exact read of a 10k room costs several updates: live update skips it while playing).
   std::vector<float> corner_radiance(int object, bool exact_near_direct = true) const;  // 3 floats per face corner
   std::vector<float> vertex_radiance(int object) const;  // 3 floats per input vertex
+  // Outgoing radiance on the front side at points of the object's surface (lightmap texels), in
+  // corner_radiance's units: each point on input face `faces[i]` at object-space `positions[i]`
+  // gathers its own direct light (lamps, emitters, sky, with its own visibility) at the solve's
+  // direct sampling, plus the solution's reflected light interpolated within its patch.
+  // 3 floats per point; std::invalid_argument for a face the object does not have.
+  std::vector<float> surface_radiance(int object, const std::vector<int>& faces,
+                                      const std::vector<dvec3>& positions) const;
 
   // The refined patch mesh of one object, for inspection and pictures (world positions), with the
   // radiance as solved at every patch corner (near light interpolated).

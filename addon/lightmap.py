@@ -1,0 +1,169 @@
+"""Lightmaps: per lit mesh a float image `<object name>_Radiosity` laid out in its RadiosityUV map,
+each texel the light at the surface point it shows (Solver.surface_radiance: its own direct light,
+the solution's reflected light), in the units of the Radiosity attribute, what Cycles' COMBINED
+bake writes into an image texture.
+
+Worked out after a successful solve, every image's pixels first, then written: a failure on the
+way leaves the images as they were. Written images are packed into the .blend.
+"""
+import math
+import os
+
+import bpy
+import numpy as np
+
+from . import texel_filter, texel_padding, texel_raster, uv_charts
+
+IMAGE_SUFFIX = "_Radiosity"
+AVERAGED_AT_ONCE = 65536   # texels averaged in one engine call: bounds the memory of their samples
+
+
+def image_name(object_name):
+    return object_name + IMAGE_SUFFIX
+
+
+def surface_area(ob):
+    """ob's mesh area in world units: object-space face areas scaled by the transform (exact for a
+    uniform scale, the mean for another)."""
+    me = ob.data
+    areas = np.empty(len(me.polygons), np.float64)
+    me.polygons.foreach_get("area", areas)
+    scale = abs(np.linalg.det(np.array(ob.matrix_world, np.float64)[:3, :3])) ** (2.0 / 3.0)
+    return float(areas.sum()) * scale
+
+
+def image_size(ob, props):
+    """The side of a new square image for ob: texel_density texels per metre across the square
+    root of its area, within the minimum and maximum sizes. Lightmap Pack leaves part of the square
+    between charts, so the texels on the surface are somewhat fewer."""
+    side = math.ceil(math.sqrt(surface_area(ob)) * props.texel_density)
+    return int(min(max(side, props.lightmap_min_size), props.lightmap_max_size))
+
+
+def _triangles(me, layer):
+    """(uv (T, 3, 2), face (T,), vertices (T, 3)) of me's loop triangles in UV layer `layer`."""
+    me.calc_loop_triangles()
+    t = len(me.loop_triangles)
+    loops = np.empty(3 * t, np.int32)
+    me.loop_triangles.foreach_get("loops", loops)
+    vertices = np.empty(3 * t, np.int32)
+    me.loop_triangles.foreach_get("vertices", vertices)
+    faces = np.empty(t, np.int32)
+    me.loop_triangles.foreach_get("polygon_index", faces)
+    uv = np.empty(2 * len(me.loops), np.float32)
+    layer.data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2)[loops].reshape(t, 3, 2), faces, vertices.reshape(t, 3)
+
+
+def texels(solver, index, positions, me, layer, width, height):
+    """(height, width, 4) float32 RGBA: each covered texel's light from `solver` (object `index`,
+    whose input mesh has `positions`, object space, and me's faces), averaged over its footprint
+    as Cycles' bake does where the light changes (texel_filter.py), the rest padded, alpha 1.
+    Alpha is 1 on padding too: images are stored with colour premultiplied by alpha, so a padded
+    texel of alpha 0 would lose its colour when packed or saved."""
+    uv, faces, vertices = _triangles(me, layer)
+    corners = positions[vertices]
+
+    def light(triangle, bary):
+        at = np.einsum("nk,nkj->nj", bary, corners[triangle])
+        return solver.surface_radiance(index, faces[triangle].astype(np.int32), np.ascontiguousarray(at))
+
+    texel, triangle, bary = texel_raster.rasterise(uv, width, height)
+    rgb = np.zeros((height * width, 3), np.float32)
+    rgb[texel] = light(triangle, bary)
+    covered = np.zeros(height * width, bool)
+    covered[texel] = True
+    edge = texel_filter.edges(rgb.reshape(height, width, 3), covered.reshape(height, width)).ravel()[texel]
+    if edge.any():
+        steps = texel_filter.barycentric_steps(uv * (width, height))
+        for part in np.array_split(np.flatnonzero(edge), max(1, int(edge.sum()) // AVERAGED_AT_ONCE)):
+            points = texel_filter.footprint(bary[part], steps[triangle[part]])
+            values = light(np.repeat(triangle[part], points.shape[1]), points.reshape(-1, 3))
+            rgb[texel[part]] = values.reshape(points.shape[0], points.shape[1], 3).mean(axis=1)
+    rgb = texel_padding.pad(rgb.reshape(height, width, 3), covered.reshape(height, width))
+    return np.concatenate([rgb, np.ones((height, width, 1), np.float32)], axis=2)
+
+
+def targets(job):
+    """(object, MeshExport) of every mesh object of `job` that gets a lightmap, and why others do not.
+    The engine's faces must be the object's own mesh's, in order."""
+    out, skipped = [], []
+    for m in job.export.visible_meshes:
+        ob = bpy.data.objects.get(m.object_name)
+        if m.object_type != 'MESH' or m.name != m.object_name or ob is None or ob.type != 'MESH':
+            continue
+        me = ob.data
+        if ob.library is not None or me.library is not None:
+            skipped.append(f"'{ob.name}' uses linked library data: no lightmap")
+        elif m.refine == "catmull_clark":
+            skipped.append(f"'{ob.name}': lightmaps of Subdivision Surface objects are not made yet")
+        elif not m.matches_original or len(m.face_sizes) != len(me.polygons) or len(m.positions) != len(me.vertices):
+            skipped.append(f"'{ob.name}': modifiers change its faces: no lightmap")
+        elif not me.polygons:
+            continue
+        else:
+            out.append((ob, m))
+    return out, skipped
+
+
+def bake(job, props):
+    """Lightmaps of every target of a solved job. Returns (written object names, messages).
+    Makes the RadiosityUV maps it needs; writes no image unless all were worked out."""
+    done, messages = {}, []
+    found, skipped = targets(job)
+    messages += skipped
+    for ob, m in found:
+        name = image_name(ob.name)
+        image = bpy.data.images.get(name)
+        if image is not None and image.size[0] > 0 and image.size[1] > 0:
+            width, height = image.size
+        else:
+            width = height = image_size(ob, props)
+        layer = uv_charts.ensure_uv_map(ob.data, max(width, height))
+        if layer is None:
+            messages.append(f"'{ob.name}' has no room for a UV map '{uv_charts.UV_MAP}': no lightmap")
+            continue
+        done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], m.positions, ob.data, layer,
+                                               width, height))
+    for object_name, (width, height, rgba) in done.items():
+        write_image(image_name(object_name), width, height, rgba)
+    return list(done), messages
+
+
+def write_image(name, width, height, rgba):
+    """Writes (height, width, 4) pixels into image `name`, made float if missing, and packs it."""
+    image = bpy.data.images.get(name)
+    if image is None or tuple(image.size) != (width, height):
+        if image is not None:      # an empty image (no pixels to write into) is made anew
+            bpy.data.images.remove(image)
+        image = bpy.data.images.new(name, width, height, alpha=True, float_buffer=True)
+    image.use_fake_user = True     # kept in the .blend while no material uses it yet
+    image.pixels.foreach_set(np.ascontiguousarray(rgba, np.float32).ravel())
+    image.file_format = 'OPEN_EXR'
+    image.pack()
+    image.update()
+    return image
+
+
+def images_of(scene):
+    """The lightmap images of the scene's mesh objects that exist."""
+    return [image for ob in scene.objects if ob.type == 'MESH'
+            for image in [bpy.data.images.get(image_name(ob.name))] if image is not None]
+
+
+def save_exr(images, folder):
+    """Writes each image as `<folder>/<image name>.exr` (float, as the pixels are); returns the paths.
+    The images keep their own file paths."""
+    folder = bpy.path.abspath(folder)
+    os.makedirs(folder, exist_ok=True)
+    paths = []
+    for image in images:
+        path = os.path.join(folder, bpy.path.clean_name(image.name) + ".exr")
+        kept = image.filepath_raw, image.file_format
+        image.filepath_raw, image.file_format = path, 'OPEN_EXR'
+        try:
+            image.save()
+        finally:
+            image.filepath_raw, image.file_format = kept
+        paths.append(path)
+    return paths

@@ -1,0 +1,98 @@
+"""Solver.surface_radiance: the light at any points of a surface (lightmap texels), each with its own
+direct light, against closed forms and the solver's own corners."""
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from scenes import Mesh, cornell_box, engine  # noqa: E402
+
+RHO = 0.5
+LAMP, INTENSITY = np.array([0.0, 0.0, 2.0]), 8.0
+# The floor's object transform: turned about z and moved, so positions go in in object space.
+TURN = math.radians(30)
+FLOOR_MATRIX = np.array([[math.cos(TURN), -math.sin(TURN), 0, 1.0],
+                         [math.sin(TURN), math.cos(TURN), 0, -0.5],
+                         [0, 0, 1, 0],
+                         [0, 0, 0, 1]])
+
+
+def lamp_over_floor():
+    """A 20 m floor of one face in 4 m patches under a point lamp, with a black 0.2 m square 1 m
+    above the lamp's foot facing down: its shadow on the floor is 0.4 m across, far inside one
+    patch, and nothing the floor receives is reflected light."""
+    scene = engine.Scene()
+    grey = scene.add_material((RHO, RHO, RHO))
+    black = scene.add_material((0.0, 0.0, 0.0))
+    floor = Mesh()
+    floor.add_face([(-10, -10, 0), (10, -10, 0), (10, 10, 0), (-10, 10, 0)], grey)
+    blocker = Mesh()
+    blocker.add_face([(-0.1, -0.1, 1), (-0.1, 0.1, 1), (0.1, 0.1, 1), (0.1, -0.1, 1)], black)
+    scene.add_point_light(tuple(LAMP), (INTENSITY,) * 3)
+    floor_id = floor.add_to(scene, refine="bilinear", patch_size=4.0, transform=FLOOR_MATRIX)
+    blocker.add_to(scene, refine="bilinear")
+    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    solver.solve()
+    return solver, floor_id
+
+
+def world(local):
+    return (FLOOR_MATRIX @ np.c_[local, np.ones(len(local))].T).T[:, :3]
+
+
+def test_point_lamp_irradiance_at_any_point():
+    solver, floor = lamp_over_floor()
+    rng = np.random.default_rng(1)
+    local = np.c_[rng.uniform(-9.5, 9.5, (200, 2)), np.zeros(200)]
+    at = world(local)
+    lit = np.linalg.norm(at[:, :2] - LAMP[:2], axis=1) > 0.3  # outside the blocker's shadow
+    to_lamp = LAMP - at[lit]
+    d2 = np.sum(to_lamp ** 2, axis=1)
+    expected = RHO * INTENSITY * (to_lamp[:, 2] / np.sqrt(d2)) / (math.pi * d2)
+    got = solver.surface_radiance(floor, np.zeros(len(local), np.int32), local)
+    assert got.dtype == np.float32 and got.shape == (200, 3)
+    np.testing.assert_allclose(got[lit], np.repeat(expected[:, None], 3, axis=1), rtol=1e-4)
+
+
+def test_shadow_inside_a_patch_the_corners_cannot_show():
+    solver, floor = lamp_over_floor()
+    foot = np.linalg.solve(FLOOR_MATRIX, [0, 0, 0, 1])[:3]  # object-space point under the lamp
+    beside = np.linalg.solve(FLOOR_MATRIX, [0.5, 0, 0, 1])[:3]
+    got = solver.surface_radiance(floor, np.zeros(2, np.int32), np.array([foot, beside]))
+    assert np.all(got[0] == 0.0)  # the blocker is black: no direct and no reflected light there
+    d2 = 0.25 + 4.0
+    assert got[1][0] == pytest.approx(RHO * INTENSITY * (2 / math.sqrt(d2)) / (math.pi * d2), rel=1e-4)
+    # The patch corners around the foot are all lit: interpolating them could not show the shadow.
+    positions, radiance = solver.refined(floor)
+    near = np.linalg.norm(positions[:, :2], axis=1) < 6.0
+    assert near.sum() >= 4 and np.all(radiance[near] > 0)
+
+
+def test_face_corners_agree_with_corner_radiance():
+    """At an input face's corner the point is the solver's own receiving point: the same direct
+    light, reflected light and reflectance (corner_radiance with the near direct light interpolated,
+    as a texel's reflected light is)."""
+    scene = engine.Scene()
+    grey = scene.add_material((0.7, 0.6, 0.5))
+    room, block = Mesh(), Mesh()
+    room.add_box((0, 0, 1), (2, 2, 2), grey, inward=True)
+    block.add_box((0.3, -0.2, 0.3), (0.6, 0.6, 0.6), grey, angle=0.4)
+    scene.add_point_light((-0.3, 0.2, 1.6), (5.0, 5.0, 5.0))
+    ids = [m.add_to(scene, refine="bilinear", patch_size=0.25) for m in (room, block)]
+    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    solver.solve()
+    for obj, mesh in zip(ids, (room, block)):
+        faces = np.repeat(np.arange(len(mesh.faces), dtype=np.int32), [len(f) for f in mesh.faces])
+        positions = np.array([mesh.positions[i] for f in mesh.faces for i in f], float)
+        corners = solver.corner_radiance(obj, exact_near_direct=False)
+        assert np.mean(corners.max(axis=1) > 0) > 0.8  # the block's bottom alone is dark
+        np.testing.assert_allclose(solver.surface_radiance(obj, faces, positions), corners, rtol=1e-4, atol=1e-7)
+
+
+def test_a_face_the_object_lacks_is_refused():
+    solver, floor = lamp_over_floor()
+    with pytest.raises(ValueError):
+        solver.surface_radiance(floor, np.array([1], np.int32), np.zeros((1, 3)))
