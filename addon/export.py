@@ -20,6 +20,7 @@ import math
 import bpy
 import numpy as np
 
+from . import display
 from . import texture as colour_texture
 from . import world as world_light
 
@@ -234,12 +235,6 @@ def _linked(socket):
     return socket.links[0].from_node
 
 
-def _output_node(tree, types=('OUTPUT_MATERIAL',)):
-    outs = [n for n in tree.nodes if n.type in types and getattr(n, "target", 'ALL') in ('ALL', 'CYCLES')]
-    for n in outs:
-        if n.is_active_output:
-            return n
-    return outs[0] if outs else None
 
 
 def material_values(mat, images=None):
@@ -250,7 +245,7 @@ def material_values(mat, images=None):
         return MaterialExport("<default>", DEFAULT_REFLECTANCE, (0.0, 0.0, 0.0))
     warnings = []
     if mat.use_nodes and mat.node_tree is not None:
-        out = _output_node(mat.node_tree)
+        out = display.user_output(mat.node_tree)
         if out is None:
             return MaterialExport(mat.name, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), ["no material output"])
         textures, emissions = [], []
@@ -278,7 +273,7 @@ def world_radiance(world, warnings=None, images=None):
     if world is None:
         return np.zeros(3), None, []
     if world.use_nodes and world.node_tree is not None:
-        out = _output_node(world.node_tree, ('OUTPUT_WORLD',))
+        out = display.user_output(world.node_tree, ('OUTPUT_WORLD',))
         node = _linked(out.inputs["Surface"]) if out is not None else None
         if node is None:
             return np.zeros(3), None, []

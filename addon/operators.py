@@ -12,7 +12,7 @@ import threading
 
 import bpy
 
-from . import bake_stats, farm, lightmap, live_update, writeback
+from . import bake_stats, display, farm, lightmap, live_update, writeback
 from .errors import BakeError
 from .job import BakeJob
 from .scene_diff import REBUILD_NOTE
@@ -151,6 +151,7 @@ def conclude(context, results, stats, animation, report):
     report({'INFO'}, f"Radiosity: baked {len(written)} object(s)"
            + (f", {stats['frames']} frames ({stats['incremental']} incremental)" if animation else "")
            + f" in {props.last_seconds:.2f} s; simulated: {props.last_effects}")
+    display.after_bake(scene)
     return written
 
 

@@ -3,6 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
+from . import display
 from .settings import preset_values
 
 
@@ -102,6 +103,15 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
     last_frames: IntProperty(name="Frames", default=0)
     last_warnings: StringProperty(name="Warnings", default="")
     has_results: BoolProperty(default=False)
+
+    show_bake: BoolProperty(
+        name="Show Bake", default=False, update=display.on_toggle,
+        description="Show the baked light in the viewport and in renders: the lit meshes' materials "
+                    "emit it in place of their surface (turned off, they are as they were)")
+    display_exposure: FloatProperty(
+        name="Exposure", default=0.0, soft_min=-10.0, soft_max=10.0, precision=2, update=display.on_exposure,
+        description="Brightness of the shown bake, in stops")
+    display_offered: BoolProperty(default=False)   # the first bake turns Show Bake on, later ones do not
 
 
 classes = (RADIOSITY_PG_settings,)
