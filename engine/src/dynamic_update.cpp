@@ -98,13 +98,12 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   touched.assign(mesh.points.size(), 0);
   Pending changes = std::move(pending);
   pending = Pending();
-  // Refuse a bad change before anything moves: the state stays as it was.
-  SceneDesc next = scene;
-  for (const auto& [o, m] : changes.meshes) next.meshes.at(o) = m;
-  for (const auto& [i, m] : changes.materials) next.materials.at(i) = m;
-  for (const auto& [i, l] : changes.lamps) next.lamps.at(i) = l;
-  if (changes.world) next.world = *changes.world;
-  next.validate();
+  // Refuse a bad change before anything moves: the state stays as it was. Only what changes is
+  // checked (the set_* calls took indices the scene has).
+  for (const auto& [o, m] : changes.meshes) validate_mesh(m, o, scene.materials.size());
+  for (const auto& [i, m] : changes.materials) validate_material(m, i);
+  for (const auto& [i, l] : changes.lamps) validate_lamp(l, i);
+  if (changes.world) validate_world(*changes.world);
   std::map<int, PlacedObject> placed;
   for (const auto& [o, m] : changes.meshes) {
     const MeshDesc& was = scene.meshes[o];
@@ -131,7 +130,9 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   stats.restart.clear();
   if (!injected) {  // nothing gathered yet: the first solve will see the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
-    scene = std::move(next);
+    for (const auto& [i, m] : changes.materials) scene.materials[i] = m;
+    for (const auto& [i, l] : changes.lamps) scene.lamps[i] = l;
+    if (changes.world) scene.world = *changes.world;
     return done();
   }
   double light = injected_power;
