@@ -399,7 +399,7 @@ def save(rows):
                  [("scene", "scene", None), ("points", "points", tables.count), ("full_s", "full solve", tables.seconds),
                   ("update_s", "update", tables.seconds), ("ratio", "full / update", None),
                   ("rms_updated", "RMS updated (worst)", tables.percent),
-                  ("live_s", "live update, converged", tables.seconds), ("playing_fps", "playing fps", None),
+                  ("live_s", "live update", tables.seconds), ("playing_fps", "playing fps", None),
                   ("frames_per_update", "frames an update", None), ("rms_playing", "RMS playing", tables.percent),
                   ("rms_settled", "RMS settled", tables.percent), ("baked_fps", "baked playback fps", None)],
                  how + " full: a new solver and solve of a played frame; update: Solver.update() of a frame "
