@@ -108,9 +108,15 @@ class BakeJob:
         return self.calls is not None
 
     @property
+    def settled(self):
+        """Shot to the solve's threshold. An update stops sooner (the engine's update_threshold), a
+        budget sooner still: a job with nothing to send then shoots on to it (the settle)."""
+        return self.stats is not None and bool(self.stats.get("settled", True))
+
+    @property
     def unchanged(self):
-        """Incremental, nothing differs from base and base shot to the threshold: solve() does nothing."""
-        return self.calls is not None and not self.calls and not self.base.out_of_budget
+        """Incremental, nothing differs from base and base is settled: solve() does nothing."""
+        return self.calls is not None and not self.calls and self.base.settled
 
     # -- any thread
     def cancel(self):

@@ -23,8 +23,9 @@
   gathers, which cannot be cut short, before its first shot. When playback stops (_watch),
   the rest is shot to the threshold, in the worker as well: the colours are a full update's. The
   main thread only exports, diffs and writes; the worker also reads the colours (with the exact
-  contact light, seconds in a large room). Scripts' frame_set and background mode converge every frame
-  (sync()).
+  contact light, seconds in a large room). Scripts' frame_set and background mode finish every frame's
+  update before returning (sync()); an update stops short of the solve's threshold where a frame's
+  accuracy allows (the engine's update_threshold), and the settle shoots on to it.
 - Edits in the viewport (an object dragged, a slider moved) take the same path: waiting for each
   would freeze the UI for the whole update at every step of a drag (most of a second in a large
   room). Once edits have stopped for EDIT_QUIET seconds, _watch shoots the rest to the threshold.
@@ -312,7 +313,8 @@ def _end(scene, job, base, info):
                 seconds_solve=job.seconds, seconds_write=t3 - t2, seconds_total=t3 - info["start"],
                 touched_points=touched, touched_points_engine=int(st.get("touched_points", -1)),
                 points=points, residual=float(st.get("residual", 0.0)),
-                converged=bool(st.get("converged", True)), budgeted=job.budget is not None,
+                converged=bool(st.get("converged", True)), settled=job.settled,
+                restart=st.get("restart") or None, budgeted=job.budget is not None,
                 rays=job.rays, shots=job.shots, written=len(written))
     return info
 
@@ -344,7 +346,7 @@ def _kept(info, edit):
 
 def sync(scene, depsgraph=None, frame_change=False, edit=True):
     """Bring the scene's live Solver and the colours up to date with the evaluated scene, shooting to
-    the threshold. Returns what it did: {"mode": "unchanged" | "incremental" | "full" | "skipped" |
+    the update's stop (in the UI, _watch settles it once things stop). Returns what it did: {"mode": "unchanged" | "incremental" | "full" | "skipped" |
     "error", ...}. `frame_change`: called for one, with no edit since the last (_begin)."""
     finish(scene)
     _state["busy"] = True
@@ -353,6 +355,9 @@ def sync(scene, depsgraph=None, frame_change=False, edit=True):
         if job is not None:
             _solve(job, info)
             info = _end(scene, job, base, info)
+        if job is not None and not bpy.app.background and not job.settled \
+                and not bpy.app.timers.is_registered(_watch):
+            bpy.app.timers.register(_watch, first_interval=WATCH_INTERVAL)   # settled once things stop
         return _record(scene, info) if _kept(info, edit) else info
     finally:
         _state["busy"] = False
@@ -390,8 +395,9 @@ EDIT_QUIET = 0.3       # seconds without an edit after which editing counts as s
 
 
 def _watch():
-    """Timer: once playback or editing stops, the scene as it is then is shot to the threshold, in
-    the worker too (the update that ran is written first); polled until one ends with nothing left."""
+    """Timer: once playback or editing stops, the scene as it is then is shot to the solve's
+    threshold (settled: updates stop sooner), in the worker too (the update that ran is written
+    first); polled until one ends with nothing left."""
     if playing() or editing():
         return WATCH_INTERVAL
     scene = bpy.context.scene
@@ -402,7 +408,7 @@ def _watch():
         return WATCH_INTERVAL
     info = finish(scene)                                  # the update that ran, written
     job = live_jobs.get(scene.name)
-    if info is None and (job is None or not job.out_of_budget):
+    if info is None and (job is None or job.settled):
         return None                                       # nothing ran, nothing left to shoot
     if not scene.radiosity.live_update or (info is not None and info["mode"] == "error"):
         return None

@@ -69,8 +69,12 @@ def live_status(info):
         pts, touched = info.get("points") or 0, info.get("touched_points")
         if mode == "incremental" and pts and touched is not None:
             text += f", {100.0 * touched / pts:.0f}% of vertices touched"
-        if info.get("budgeted"):
+        if info.get("restart"):
+            text += f", solved afresh: {info['restart']}"
+        elif info.get("budgeted"):
             text += f", playing at residual {100.0 * info['residual']:.1f}%"
+        elif mode == "incremental":
+            text += ", settled" if info.get("settled") else f", settling (residual {100.0 * info['residual']:.2f}%)"
         return text
     if mode == "unchanged":
         return "Live: up to date"

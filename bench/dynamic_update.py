@@ -5,7 +5,8 @@
 preset: draft (default) | default | high; frames: frames played per scene, spread evenly over its
 range (0, the default: every frame, so that each update is one frame's change; 6 steps 4 frames at
 a time, as live playback's updates at 10k span 4-6 frames);
-full_repeats: full re-solves timed per scene (default 2); scenes: comma-separated names (all);
+full_repeats: full re-solves timed per scene (default 2), of the last frames played, each also the
+reference its frame's update is measured against (RMS; the worst goes to the table); scenes: comma-separated names (all);
 db_cache_mb: the dB cache's cap (the add-on's default; 0 = no cache); playbacks: runs of the
 playback below (default 3; 0 skips it). Scenes:
 
@@ -27,9 +28,9 @@ all rays it traced, "changed" the rays the move changed (each needs a trace of t
 the box, unless the cache answers: "hits"), "cache MB" what the cache holds after the last frame.
 
 Shooting on (same updates): an update's signed gathers leave the light the change made unshot,
-"left" times the threshold; it is shot back under the threshold in "shots" shots taking "shoot s".
-"bound" = full / shoot s: no update that shoots that light back to the same threshold with the
-same shots gets past it, whatever the gathers before cost.
+"left" times the threshold; it is shot down to the update's stop (the engine's update_threshold)
+in "shots" shots taking "shoot s". "bound" = full / shoot s: no update that shoots that light back
+as far with the same shots gets past it, whatever the gathers before cost.
 
 Playback: the frame range played as the UI plays it (live_update.playing() forced on; every frame,
 1/fps apart, later when a frame's own work ran over): updates in a worker thread with a frame's time
@@ -213,7 +214,8 @@ def play_back(scene):
     names, reference = fresh_solve(scene, scene.frame_current)
     playing = relative_rms(shown(scene, names), reference)
     # the same colours against their own frame's light: what the residual costs, without the lag
-    own = relative_rms(shown(scene, names), fresh_solve(scene, written[-1]["frame"])[1])
+    # (none, when a single update outlasts the frame range)
+    own = relative_rms(shown(scene, names), fresh_solve(scene, written[-1]["frame"])[1]) if written else float("nan")
     live.playing = lambda: False
     t = time.perf_counter()
     watch = []                                      # the main thread's time in each timer call
@@ -225,7 +227,7 @@ def play_back(scene):
             break
         time.sleep(live.WATCH_INTERVAL)
     settle = time.perf_counter() - t
-    assert live.last_sync[scene.name]["converged"]
+    assert live.last_sync[scene.name]["settled"]
     return dict(fps=len(main) / seconds, main=med(main), main_max=max(main), updates=len(written),
                 span=len(main) / max(1, len(written)), residual=med([i["residual"] for i in written]),
                 playing=playing, own=own, settled=relative_rms(shown(scene, names), reference), settle=settle,
@@ -246,6 +248,8 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     steps = frames if 0 < frames < span else span
     todo = sorted({scene.frame_start + max(1, round(span * (i + 1) / steps)) for i in range(steps)})
     inc, upd, frame_wall, touched, writes = [], [], [], [], []
+    names = sorted(live.live_jobs[scene.name].colours())
+    updated_colours = {}                           # frame -> colours its update wrote (forward)
     del updated[:]
     for f in todo:
         t = time.perf_counter()
@@ -253,6 +257,7 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         frame_wall.append(time.perf_counter() - t)
         info = live.last_sync[scene.name]
         assert info["frame"] == f and info["mode"] == "incremental", info
+        updated_colours[f] = shown(scene, names)
         inc.append(info["seconds_total"])
         upd.append(info["seconds_solve"])
         writes.append(info["seconds_write"])
@@ -278,8 +283,9 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     plays = [play_back(scene) for _ in range(PLAYBACKS)]
     live.playing = playing
     playback = {k: med([p[k] for p in plays]) for k in plays[0]} if plays else None
-    # full re-solves of frames just played (same export, a new Solver)
-    full = []
+    # full re-solves of frames just played (same export, a new Solver), each the reference its
+    # update's colours are measured against
+    full, frame_rms = [], {}
     for f in todo[-full_repeats:]:
         with live.suspended():
             scene.frame_set(f)
@@ -287,6 +293,8 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         t = time.perf_counter()
         job.solve()
         full.append(time.perf_counter() - t)
+        colours = job.colours()
+        frame_rms[f] = relative_rms(updated_colours[f], np.concatenate([colours[n][:, :3] for n in names]))
     live.forget(scene.name)
     scene.radiosity.live_update = False
     # Playback after Bake Animation: each frame's stored colours are written in frame_change_pre.
@@ -299,6 +307,7 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         baked.append(time.perf_counter() - t)
     threshold = pkg.settings.engine_settings(scene.radiosity).threshold
     return dict(scene=name, vertices=verts, points=first["points"], frames=len(todo), full=med(full),
+                frame_rms=frame_rms, by_frame=dict(zip(todo, upd)),
                 threshold=threshold,
                 update=med(upd), incremental=med(inc), frame=med(frame_wall), write=med(writes),
                 touched=med(touched), first=first["seconds_solve"], baked=med(baked), db=db, db_mb=db_mb,
@@ -326,12 +335,17 @@ def main():
            f"{r['full'] / r['update'] if r['update'] > 0 else float('inf'):6.1f} {100 * r['touched']:7.1f}% "
            f"{r['incremental']:8.3f} {1000 * r['write']:8.2f} {r['frame']:8.3f} {1 / r['frame']:6.1f} "
            f"{1 / r['baked']:9.1f}" for r in rows])
+    print("Each re-solved frame: its update (Solver.update() through the add-on) against the full solve, and the "
+          "colours the update wrote against the full solve's (RMS)")
+    table(f"{'scene':14} {'frame':>5} {'update s':>9} {'full / update':>13} {'rms':>8}",
+          [f"{r['scene']:14} {f:5d} {r['by_frame'][f]:9.3f} {r['full'] / r['by_frame'][f]:13.1f} "
+           f"{100 * rms:7.3f}%" for r in rows for f, rms in sorted(r['frame_rms'].items())])
     print(f"dB cache (cap {rows[0]['db_cap']:g} MB): the frames above played forward, then back; medians per update")
     table(f"{'scene':14} {'way':8} {'cpu s':>7} {'rays':>10} {'changed':>9} {'hits':>9} {'hit %':>6} {'cache MB':>8}",
           [f"{r['scene']:14} {way:8} {d['cpu']:7.3f} {d['rays']:10.0f} {d['changed']:9.0f} {d['hits']:9.0f} "
            f"{100 * d['hits'] / max(1, d['changed']):6.1f} {r['db_mb']:8.2f}" for r in rows for way, d in r["db"].items()])
     print("Shooting on: what an update's gathers left unshot (in thresholds), the shots and seconds that took "
-          "it back under the threshold, their share of the update, and full / those seconds: the most full / update "
+          "it down to the update's stop, their share of the update, and full / those seconds: the most full / update "
           "could be were the rest of the update free")
     table(f"{'scene':14} {'way':8} {'left':>6} {'shots':>6} {'shoot s':>8} {'share':>6} {'bound':>6}",
           [f"{r['scene']:14} {way:8} {d['left'] / r['threshold']:6.1f} {d['shots']:6.0f} {d['shoot']:8.3f} "
@@ -374,6 +388,7 @@ def save(rows):
         per_scene.append(dict(
             scene=r["scene"], vertices=r["vertices"], points=r["points"], full_s=f"{r['full']:.3f}",
             update_s=f"{r['update']:.3f}", ratio=f"{r['full'] / r['update']:.1f}" if r["update"] > 0 else "",
+            rms_updated=f"{max(r['frame_rms'].values()):.4f}",
             touched=f"{r['touched']:.3f}", live_s=f"{r['incremental']:.3f}", frame_s=f"{r['frame']:.3f}",
             baked_fps=f"{1 / r['baked']:.0f}", playing_fps=f"{p['fps']:.1f}" if p else "",
             frames_per_update=f"{p['span']:.1f}" if p else "", residual=f"{p['residual']:.4f}" if p else "",
@@ -383,7 +398,8 @@ def save(rows):
                  f"Dynamic update cost ({PRESET.lower()} preset)",
                  [("scene", "scene", None), ("points", "points", tables.count), ("full_s", "full solve", tables.seconds),
                   ("update_s", "update", tables.seconds), ("ratio", "full / update", None),
-                  ("live_s", "live update, converged", tables.seconds), ("playing_fps", "playing fps", None),
+                  ("rms_updated", "RMS updated (worst)", tables.percent),
+                  ("live_s", "live update", tables.seconds), ("playing_fps", "playing fps", None),
                   ("frames_per_update", "frames an update", None), ("rms_playing", "RMS playing", tables.percent),
                   ("rms_settled", "RMS settled", tables.percent), ("baked_fps", "baked playback fps", None)],
                  how + " full: a new solver and solve of a played frame; update: Solver.update() of a frame "
@@ -408,8 +424,8 @@ def save(rows):
                   ("bound", "full / shooting on", None)],
                  how + " The frames are played forward, then back. changed rays: rays the move changed, each "
                  "a trace of the scene without the moving object unless the dB cache answers it. left: the light "
-                 "an update's gathers leave unshot, in thresholds; shooting on: the shots that take it back under "
-                 "the threshold; full / shooting on bounds full / update for any update shooting like this.")
+                 "an update's gathers leave unshot, in thresholds; shooting on: the shots that take it down to "
+                 "the update's stop; full / shooting on bounds full / update for any update shooting like this.")
 
 
 main()

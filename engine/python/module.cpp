@@ -79,6 +79,8 @@ py::dict stats_dict(const SolveStats& s) {
   d["threads"] = s.threads;
   d["relaxation"] = s.relaxation;
   d["converged"] = s.converged;
+  d["settled"] = s.settled;
+  d["restart"] = s.restart;
   d["diverged"] = s.diverged;
   d["cancelled"] = s.cancelled;
   d["warnings"] = s.warnings;
@@ -189,6 +191,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def_readwrite("shooter_size_relative", &Settings::shooter_size_relative)
       .def_readwrite("near_factor", &Settings::near_factor)
       .def_readwrite("threshold", &Settings::threshold)
+      .def_readwrite("update_threshold", &Settings::update_threshold)
       .def_readwrite("relaxation", &Settings::relaxation)
       .def_readwrite("exact_near_direct", &Settings::exact_near_direct)
       .def_readwrite("exact_near_reflected", &Settings::exact_near_reflected)
@@ -285,14 +288,17 @@ PYBIND11_MODULE(radiosity_engine, m) {
              return run(solver, progress, [&](const ProgressCallback& c) { solver.solve(c); });
            },
            py::arg("progress") = py::none(),
-           "Solve to the threshold. progress(fraction, residual) may return False to cancel.")
+           "Solve to the threshold, or shoot on to it after updates (settle). progress(fraction, residual) "
+           "may return False to cancel.")
       .def("update",
            [](Solver& solver, std::optional<py::function> progress) {
              return run(solver, progress, [&](const ProgressCallback& c) { solver.update(c); });
            },
            py::arg("progress") = py::none(),
-           "Apply the set_* changes incrementally, then shoot to the threshold (stats as solve(), plus "
-           "touched_points). A bad change raises ValueError and leaves the solution as it was.")
+           "Apply the set_* changes incrementally, then shoot down to the update's stop "
+           "(Settings.update_threshold; stats as solve(), plus touched_points; settled: at the solve's threshold; "
+           "restart: why it solved afresh, if it did). A bad change raises ValueError and leaves the solution as "
+           "it was.")
       // The set_* calls that copy an object's description (MeshDesc) do so without the GIL.
       .def("set_transform",
            [](Solver& s, int object, const Array<double>& m) {

@@ -2,7 +2,8 @@
 //
 // Radiosity is linear in the light sent, so a change is undone and redone by signed gathers that
 // restore the solver's invariant (solver_impl.h) for the new scene; the unshot radiance those leave
-// (positive or negative) is then shot as in a solve, to the same threshold. When an object moves:
+// (positive or negative) is then shot as in a solve, down to a stop relative to that light
+// (Settings::update_threshold). When an object moves:
 //  - its own shooters (emission and what it has reflected) shoot negative from the old place and
 //    positive from the new one, to every other receiving point;
 //  - its own receiving points gather everything anew;
@@ -20,6 +21,7 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace radiosity {
 
@@ -33,6 +35,12 @@ constexpr bool kWhole = false;
 // to the old light, would be that much larger in the new one (a bright cube vanishing from a dim
 // room). Solving the new scene afresh is exact.
 constexpr double kRestartBelow = 0.1;
+
+// An update stops at most this many thresholds up: light left unshot after a change is signed and
+// lies near it (a shadow half moved), so it costs a frame more accuracy than a solve's, spread and
+// positive, at the same residual; and a change that moves much light (a lamp moved) would otherwise
+// stop where the scene is visibly off.
+constexpr double kStopAtMost = 3.0;
 
 // Groups of receivers whose sources an update culls together, relative to a shooter's size.
 constexpr double kGroupRadius = 0.5;
@@ -90,13 +98,12 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   touched.assign(mesh.points.size(), 0);
   Pending changes = std::move(pending);
   pending = Pending();
-  // Refuse a bad change before anything moves: the state stays as it was.
-  SceneDesc next = scene;
-  for (const auto& [o, m] : changes.meshes) next.meshes.at(o) = m;
-  for (const auto& [i, m] : changes.materials) next.materials.at(i) = m;
-  for (const auto& [i, l] : changes.lamps) next.lamps.at(i) = l;
-  if (changes.world) next.world = *changes.world;
-  next.validate();
+  // Refuse a bad change before anything moves: the state stays as it was. Only what changes is
+  // checked (the set_* calls took indices the scene has).
+  for (const auto& [o, m] : changes.meshes) validate_mesh(m, o, scene.materials.size());
+  for (const auto& [i, m] : changes.materials) validate_material(m, i);
+  for (const auto& [i, l] : changes.lamps) validate_lamp(l, i);
+  if (changes.world) validate_world(*changes.world);
   std::map<int, PlacedObject> placed;
   for (const auto& [o, m] : changes.meshes) {
     const MeshDesc& was = scene.meshes[o];
@@ -120,12 +127,16 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   };
 
   stats.shoot_residual = stats.shoot_seconds = 0.0;
+  stats.restart.clear();
   if (!injected) {  // nothing gathered yet: the first solve will see the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
-    scene = std::move(next);
+    for (const auto& [i, m] : changes.materials) scene.materials[i] = m;
+    for (const auto& [i, l] : changes.lamps) scene.lamps[i] = l;
+    if (changes.world) scene.world = *changes.world;
     return done();
   }
   double light = injected_power;
+  double unshot_before = total_unshot_power();
   // What the near direct light worked out stands where the direct light does (a read costs seconds
   // in a large room): only objects moved, none of them an emitter, and only near them.
   bool light_changed = changes.world || !changes.lamps.empty() || !changes.materials.empty();
@@ -146,6 +157,8 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   if (light > 0 && !(injected_power > kRestartBelow * light)) {
     restart();
     touched.assign(mesh.points.size(), 1);
+    stats.restart = "the change left " + std::to_string(int(std::round(100 * injected_power / light))) +
+                    "% of the light (under " + std::to_string(int(100 * kRestartBelow)) + "%)";
   }
   stats.touched_points = std::count(touched.begin(), touched.end(), 1);
   auto shooting = std::chrono::steady_clock::now();
@@ -153,8 +166,13 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     solve(progress);
     stats.shoot_residual = 1.0;
   } else {
-    stats.shoot_residual = reference_power > 0 ? total_unshot_power() / reference_power : 0.0;
-    propagate(progress, Sampling::full);
+    double unshot_after = total_unshot_power();
+    stats.shoot_residual = reference_power > 0 ? unshot_after / reference_power : 0.0;
+    // The light the change put to shoot sets how far it is shot (Settings::update_threshold); light
+    // left from before (a budgeted update's) is shot down with it.
+    double moved = reference_power > 0 ? std::max(0.0, unshot_after - unshot_before) / reference_power : 0.0;
+    double stop = std::min(kStopAtMost * settings.threshold, settings.update_threshold * moved);
+    propagate(progress, {std::max(settings.threshold, stop), true});
   }
   stats.shoot_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - shooting).count();
   return done();

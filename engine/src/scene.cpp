@@ -25,6 +25,8 @@ std::string mesh_label(const MeshDesc& m, size_t i) {
   return "object '" + (m.name.empty() ? "#" + std::to_string(i) : m.name) + "'";
 }
 
+}  // namespace
+
 void validate_mesh(const MeshDesc& m, size_t index, size_t material_count) {
   std::string who = mesh_label(m, index);
   for (size_t i = 0; i < m.positions.size(); ++i)
@@ -73,37 +75,41 @@ void validate_mesh(const MeshDesc& m, size_t index, size_t material_count) {
   }
 }
 
-}  // namespace
+void validate_material(const Material& m, size_t index) {
+  std::string who = "material " + std::to_string(index);
+  check_reflectance(m.reflectance, who);
+  if (!finite(m.emission)) fail(who + ": NaN or infinite emission");
+  for (int c = 0; c < 3; ++c)
+    if (m.emission[c] < 0) fail(who + ": emission must not be negative");
+}
 
-void SceneDesc::validate() const {
-  for (size_t i = 0; i < materials.size(); ++i) {
-    const Material& m = materials[i];
-    std::string who = "material " + std::to_string(i);
-    check_reflectance(m.reflectance, who);
-    if (!finite(m.emission)) fail(who + ": NaN or infinite emission");
-    for (int c = 0; c < 3; ++c)
-      if (m.emission[c] < 0) fail(who + ": emission must not be negative");
-  }
-  for (size_t i = 0; i < meshes.size(); ++i) validate_mesh(meshes[i], i, materials.size());
-  for (size_t i = 0; i < lamps.size(); ++i) {
-    const Lamp& l = lamps[i];
-    std::string who = "lamp " + std::to_string(i);
-    if (!finite(l.position) || !finite(l.direction) || !finite(l.color) || !finite(l.u_axis) ||
-        !finite(l.v_axis) || !std::isfinite(l.radius) || !std::isfinite(l.angle) ||
-        !std::isfinite(l.spot_size) || !std::isfinite(l.spot_blend))
-      fail(who + ": NaN or infinite parameter");
-    if (l.color.x < 0 || l.color.y < 0 || l.color.z < 0) fail(who + ": negative strength");
-    if (l.radius < 0) fail(who + ": negative radius");
-    bool directional = l.type == Lamp::Type::Spot || l.type == Lamp::Type::Sun ||
-                       l.type == Lamp::Type::Disc;
-    if (directional && glm::length(l.direction) == 0) fail(who + ": zero direction");
-    if (l.type == Lamp::Type::Rect && glm::length(glm::cross(l.u_axis, l.v_axis)) == 0)
-      fail(who + ": rectangle has zero area");
-  }
+void validate_lamp(const Lamp& l, size_t index) {
+  std::string who = "lamp " + std::to_string(index);
+  if (!finite(l.position) || !finite(l.direction) || !finite(l.color) || !finite(l.u_axis) ||
+      !finite(l.v_axis) || !std::isfinite(l.radius) || !std::isfinite(l.angle) ||
+      !std::isfinite(l.spot_size) || !std::isfinite(l.spot_blend))
+    fail(who + ": NaN or infinite parameter");
+  if (l.color.x < 0 || l.color.y < 0 || l.color.z < 0) fail(who + ": negative strength");
+  if (l.radius < 0) fail(who + ": negative radius");
+  bool directional = l.type == Lamp::Type::Spot || l.type == Lamp::Type::Sun ||
+                     l.type == Lamp::Type::Disc;
+  if (directional && glm::length(l.direction) == 0) fail(who + ": zero direction");
+  if (l.type == Lamp::Type::Rect && glm::length(glm::cross(l.u_axis, l.v_axis)) == 0)
+    fail(who + ": rectangle has zero area");
+}
+
+void validate_world(const WorldMap& world) {
   if (world.width < 1 || world.height < 1 || world.texels.size() != size_t(world.width) * world.height)
     fail("world map: its texels are not its width times its height");
   for (const dvec3& t : world.texels)
     if (!finite(t) || t.x < 0 || t.y < 0 || t.z < 0) fail("world colour must be finite and non-negative");
+}
+
+void SceneDesc::validate() const {
+  for (size_t i = 0; i < materials.size(); ++i) validate_material(materials[i], i);
+  for (size_t i = 0; i < meshes.size(); ++i) validate_mesh(meshes[i], i, materials.size());
+  for (size_t i = 0; i < lamps.size(); ++i) validate_lamp(lamps[i], i);
+  validate_world(world);
 }
 
 WorldMap WorldMap::uniform(const dvec3& radiance) {

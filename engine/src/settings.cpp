@@ -15,6 +15,7 @@ void Settings::validate() const {
   check(shooter_size_relative > 0 && shooter_size_relative <= 1, "shooter_size_relative must lie in (0, 1]");
   check(near_factor > 0 && std::isfinite(near_factor), "near_factor must be positive");
   check(threshold > 0 && threshold <= 1, "threshold must lie in (0, 1]");
+  check(update_threshold >= 0 && update_threshold < 1, "update_threshold must lie in [0, 1)");
   check(relaxation == 0 || (relaxation >= 1 && relaxation < 2),
         "relaxation must be 0 (automatic) or lie in [1, 2) (2 and past it diverge)");
   check(max_shots >= 0, "max_shots must be 0 (direct light only) or more");

@@ -236,27 +236,27 @@ double Solver::Impl::total_unshot_power() const {
 // A shot's far-field sampling errors are a part of what it sends, so a shot carrying little light
 // needs few distant samples: their count falls with the square root of its power (which spends a
 // given cost where it cuts the summed error most), full for a shot of kFullSamplesAbove times the
-// light the threshold leaves unshot: a tighter threshold keeps more shots at full samples. Updates
-// shoot at full samples: every shot of a shooter then goes through the same transfer, so a move
-// and its undo cancel exactly (with counts that follow the power, move/undo cycles drift).
-int Solver::Impl::far_samples(double power, Sampling sampling) const {
+// light the threshold leaves unshot: a tighter threshold keeps more shots at full samples. An
+// update's shots sample so too: a move and its undo then differ by their sampling errors, which a
+// frame's distance from a fresh solve bounds, as it bounds a solve's.
+int Solver::Impl::far_samples(double power) const {
   double full = kFullSamplesAbove * settings.threshold * reference_power;
-  if (sampling == Sampling::full || !(full > 0) || !(power < full)) return settings.samples_indirect;
+  if (!(full > 0) || !(power < full)) return settings.samples_indirect;
   return std::max(1, int(std::ceil(settings.samples_indirect * std::sqrt(power / full))));
 }
 
 // Over-relaxation pays where much light has many bounces to go: a solve, or an update that lit or
 // darkened the scene at large (a lamp, an emitter appearing: without, up to twice the shots). An
-// update that leaves the residual just past the threshold (a small object moved) has a little
-// signed light near the change to clear; shooting 1.3 times it would leave 0.3 of it behind,
-// negative, in each shooter, for more shots and no closer to a fresh solve.
-double Solver::Impl::relaxation(Sampling sampling, double residual) const {
-  return sampling == Sampling::full && residual < kRelaxAbove * settings.threshold ? 1.0 : settings.relaxation;
+// update that leaves the residual just past its stop (a small object moved) has a little signed
+// light near the change to clear; shooting 1.3 times it would leave 0.3 of it behind, negative, in
+// each shooter, for more shots and no closer to a fresh solve.
+double Solver::Impl::relaxation(const Shooting& shooting, double residual) const {
+  return shooting.update && residual < kRelaxAbove * shooting.stop ? 1.0 : settings.relaxation;
 }
 
-bool Solver::Impl::shoot(int s, std::vector<double>& power, Sampling sampling, double omega) {
+bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega) {
   Shot sent = cluster_shot(shot_scene(), shooters[s], unshot, omega,
-                           {settings.samples_indirect, settings.near_factor, far_samples(power[s], sampling)});
+                           {settings.samples_indirect, settings.near_factor, far_samples(power[s])});
   sent.reflected = true;
   patch_power.resize(mesh.patches.size());
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
@@ -289,7 +289,7 @@ std::string Solver::Impl::holders_of() const {
   return names;
 }
 
-void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling) {
+void Solver::Impl::propagate(const ProgressCallback& progress, const Shooting& shooting) {
   // Reported before the first shot too: a caller that budgets the shooting (live update during
   // playback) starts its clock there and may stop before any shot.
   auto last_report = std::chrono::steady_clock::time_point();
@@ -304,7 +304,12 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     double total = 0.0;
     for (double p : power) total += p;
     stats.residual = reference_power > 0 ? total / reference_power : 0.0;
-    if (stats.residual <= settings.threshold) {
+    // Past the threshold, what is left must also be spread: light held in a few shooters (around a
+    // moved object) is missing from their surroundings whole, an error far above its share of the
+    // residual; spread over the scene it is a solve's own. So no shooter may hold more than the
+    // threshold's worth, which a solve's stop implies.
+    double most = power.empty() ? 0.0 : *std::max_element(power.begin(), power.end());
+    if (stats.residual <= shooting.stop && !(most > settings.threshold * reference_power)) {
       stats.converged = true;
       break;
     }
@@ -315,7 +320,7 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     // with no ray between, and without this stop the solve runs to inf and NaN.
     if (limit == 0) limit = kDiverged * std::max(1.0, stats.residual);
     if (omega == 0) {
-      omega = relaxation(sampling, stats.residual);
+      omega = relaxation(shooting, stats.residual);
       if (omega == 0) {
         omega = 1.0;
         measuring = kMeasuredShots;
@@ -338,13 +343,13 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     if (progress &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - last_report).count() > kProgressInterval) {
       last_report = std::chrono::steady_clock::now();
-      double done = std::clamp(std::log(stats.residual) / std::log(settings.threshold), 0.0, 1.0);
+      double done = std::clamp(std::log(stats.residual) / std::log(shooting.stop), 0.0, 1.0);
       if (!progress(done, stats.residual)) cancel_requested = true;
     }
     if (cancel_requested) break;
     int best = int(std::max_element(power.begin(), power.end()) - power.begin());
     double shooting = power[best];
-    if (!shoot(best, power, sampling, omega)) break;
+    if (!shoot(best, power, omega)) break;
     if (measuring > 0) {
       sent += shooting;
       returned += std::accumulate(power.begin(), power.end(), 0.0) - (total - shooting);
@@ -352,12 +357,15 @@ void Solver::Impl::propagate(const ProgressCallback& progress, Sampling sampling
     }
   }
   stats.cancelled = cancel_requested.load();
+  stats.settled = stats.residual <= settings.threshold;
   if (progress && !stats.cancelled) progress(1.0, stats.residual);
 }
 
 const SolveStats& Solver::Impl::solve(const ProgressCallback& progress) {
   auto start = std::chrono::steady_clock::now();
-  near_direct.reset();
+  // Shooting on leaves the direct light where it is: what the near direct light worked out stands
+  // (a settle after updates keeps the read of the last), unless it holds the reflected light too.
+  if (!injected || settings.exact_near_reflected) near_direct.reset();
   cancel_requested = false;
   stats.cancelled = false;
   if (!injected) {
@@ -370,7 +378,7 @@ const SolveStats& Solver::Impl::solve(const ProgressCallback& progress) {
     if (reference_power == 0 && !mesh.patches.empty())
       stats.warnings.push_back("no light reaches any surface: the scene is black");
   }
-  propagate(progress, Sampling::by_power);
+  propagate(progress, {settings.threshold, false});
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return stats;
 }

@@ -131,16 +131,19 @@ struct Solver::Impl {
   std::vector<double> shooter_power() const;
   // Their sum, in shooter order as propagate() sums it: the residual's numerator, to the last bit.
   double total_unshot_power() const;
-  // How reflected shots sample distant receivers: fewer samples for less light (a solve), or
-  // always samples_indirect (an update).
-  enum class Sampling { by_power, full };
-  int far_samples(double power, Sampling sampling) const;  // for a shot of shooter power `power`
+  // Distant receivers' samples for a shot of shooter power `power`: fewer for less light.
+  int far_samples(double power) const;
+  // What propagate() shoots: down to which residual, and whether it is an update's signed light.
+  struct Shooting {
+    double stop;
+    bool update;
+  };
   // The omega shots send their unshot light with, when shooting starts from `residual`; 0: to be
   // measured (propagate).
-  double relaxation(Sampling sampling, double residual) const;
+  double relaxation(const Shooting& shooting, double residual) const;
   // power: shooter_power() after the shot
-  bool shoot(int s, std::vector<double>& power, Sampling sampling, double omega);
-  void propagate(const ProgressCallback& progress, Sampling sampling);  // shoots until the residual is below threshold
+  bool shoot(int s, std::vector<double>& power, double omega);
+  void propagate(const ProgressCallback& progress, const Shooting& shooting);  // until the residual is below its stop
   std::string holders_of() const;  // the objects holding most of the unshot light
   const SolveStats& solve(const ProgressCallback& progress);
 

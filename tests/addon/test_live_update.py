@@ -276,6 +276,7 @@ def test_playback_shoots_on_a_budget_and_settles_when_it_stops(addon, monkeypatc
         info = live.finish(scene)                     # what the next frame does once it has ended
         assert (info["frame"], info["mode"], info["budgeted"]) == (f, "incremental", True)
         assert info["shots"] == 0 and not info["converged"] and info["residual"] > threshold
+        assert not info["settled"]
 
     held = threading.Event()
     solve = live._solve
@@ -297,6 +298,7 @@ def test_playback_shoots_on_a_budget_and_settles_when_it_stops(addon, monkeypatc
     info = live.last_sync[scene.name]
     assert (info["frame"], info["mode"], info["budgeted"]) == (9, "incremental", False)
     assert info["converged"] and info["residual"] <= threshold and info["shots"] > 0
+    assert info["settled"] and addon.panels.live_status(info).endswith(", settled")
     settled = read(scene)
     check_finite(settled)
     fresh = fresh_bake(scene)
@@ -586,6 +588,26 @@ def test_hiding_a_lamp_is_incremental(addon):
     print(f"lamp hidden vs fresh bake: {100 * err_dark:.3g}% RMS; shown again vs the first bake: "
           f"{100 * err_lit:.3g}% RMS")
     assert err_dark < BOUND and err_lit < BOUND
+
+
+def test_an_update_that_solves_afresh_says_why(addon):
+    """Hiding the lamp and the glowing panel and dimming the world leaves under a tenth of the light:
+    the engine solves the scene afresh within the update, and the info and the panel's line say why."""
+    live = addon.live_update
+    scene = edit_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    scene.objects["Box"].location.x += 0.2
+    bpy.context.view_layer.update()
+    assert live.last_sync[scene.name]["restart"] is None
+    scene.objects["Lamp"].hide_render = True
+    scene.objects["Panel"].hide_render = True
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.002, 0.002, 0.002, 1.0)
+    bpy.context.view_layer.update()
+    info = live.last_sync[scene.name]
+    assert info["mode"] == "incremental" and "of the light" in info["restart"], info
+    assert "solved afresh: " + info["restart"] in addon.panels.live_status(info)
+    assert relative_rms(stacked(read(scene)), stacked(fresh_bake(scene))) < BOUND
 
 
 # ----------------------------------------------------------------------------- bake animation

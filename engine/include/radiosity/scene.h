@@ -95,4 +95,11 @@ struct SceneDesc {
   void validate() const;
 };
 
+// SceneDesc::validate's parts, one item each (`index`: its place in the SceneDesc, for the message):
+// an update checks only what it changes, at a cost that follows the change and not the scene.
+void validate_material(const Material& m, size_t index);
+void validate_mesh(const MeshDesc& m, size_t index, size_t material_count);
+void validate_lamp(const Lamp& l, size_t index);
+void validate_world(const WorldMap& world);
+
 }  // namespace radiosity

@@ -22,6 +22,12 @@ struct Settings {
   // 0.9 comes out within 0.05%, for 2% more rays than at 3.
   double near_factor = 5.0;
   double threshold = 1e-3;   // stop when unshot power / injected power falls below this
+  // An update stops once what it leaves unshot is below this part of the light its change put to
+  // shoot, or below `threshold` if that is more: a frame is judged by its distance from a fresh
+  // solve, and the light a change moves near itself is what shapes that distance. What it leaves is
+  // shot by the next update, or down to `threshold` by solve() (the add-on's settle). 0: to
+  // `threshold`, as a solve.
+  double update_threshold = 0.05;
   // Over-relaxation of reflected shots: 1 = plain progressive refinement; 0 = automatic, from the
   // share of their light the first shots see come back (Solver::Impl::propagate).
   double relaxation = 0.0;

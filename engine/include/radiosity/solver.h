@@ -29,7 +29,11 @@ struct SolveStats {
   // were traced (misses); what it holds after it (Settings::db_cache_mb).
   long long db_hits = 0, db_misses = 0;
   long long db_entries = 0, db_bytes = 0;
-  bool converged = false;
+  bool converged = false;    // shot down to where it stops: `threshold` (a solve), or an update's own stop
+  bool settled = false;      // the residual is below `threshold`: as a fresh solve leaves it
+  // Last update(): why it solved the scene afresh instead ("the change left 4% of the light (under
+  // 10%)"), or empty.
+  std::string restart;
   bool cancelled = false;
   bool diverged = false;     // the unshot light grew tenfold: the scene is beyond what the engine
                              // resolves (a warning says why); the solve stopped there
@@ -55,7 +59,8 @@ class Solver {
   Solver& operator=(const Solver&) = delete;
 
   // Shoots until the residual is below the threshold; may be called again to continue after a
-  // cancel. A cancelled solve stops at the last complete shot: the state stays consistent.
+  // cancel, or to settle after updates (which stop sooner: Settings::update_threshold). A cancelled
+  // solve stops at the last complete shot: the state stays consistent.
   const SolveStats& solve(const ProgressCallback& progress = {});
   void cancel();  // thread-safe: the running solve stops soon after
   void set_threads(int threads);  // Settings::threads for the calls from now on; not while one runs
@@ -79,7 +84,8 @@ class Solver {
   void set_world(const dvec3& radiance);
   void set_world_map(WorldMap sky);
   // Incremental update (the paper's negative and positive shooting): changes only what the pending
-  // changes affect, then shoots until the residual is below the threshold, as solve() does. Before
+  // changes affect, then shoots until the residual is below its own stop (Settings::update_threshold),
+  // what it leaves for the next update or solve() to shoot. Before
   // the first solve() it just applies the changes. Cancelling stops the shooting, not the update.
   const SolveStats& update(const ProgressCallback& progress = {});
   const SolveStats& stats() const;
