@@ -38,11 +38,9 @@ def draw_main(layout, context):
     col.operator("radiosity.bake", icon='LIGHT')
     col.operator("radiosity.bake_animation", icon='RENDER_ANIMATION')
     col.operator("radiosity.clear", icon='X')
-    row = layout.row(align=True)
-    row.prop(props, "show_bake")
-    sub = row.row(align=True)
-    sub.active = props.show_bake
-    sub.prop(props, "display_exposure", text="")
+    layout.prop(props, "show_bake")
+    if props.show_bake:
+        layout.prop(props, "display_exposure")
     layout.prop(props, "live_update")
     layout.prop(props, "store_frames")
     layout.prop(props, "lightmaps")
