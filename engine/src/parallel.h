@@ -2,8 +2,9 @@
 //
 // Its threads sleep when they run out of work instead of spinning at a barrier, so that a solve next
 // to other busy processes (Blender drawing, a Cycles render, a second bake, a farm's workers) gets its
-// fair share of the machine; OpenMP's spinning barriers made such a solve many times slower than its
-// share. Embree builds its BVHs with the same scheduler, so inside the arena they keep to its threads.
+// fair share of the machine: a thread spinning for one that is descheduled burns the time slice the
+// other needs. Embree builds its BVHs with the same scheduler, so inside the arena they keep to its
+// threads. OpenMP's wait policy would be the other way, but Blender loads libgomp and reads it at start.
 #pragma once
 
 #include <tbb/blocked_range.h>
