@@ -72,9 +72,7 @@ class PatchFinder {
     std::pair<int, OnPatch> best{-1, {}};
     auto consider = [&](int q) {
       if (obj_.patch_face[q - obj_.patch_begin] != face) return;
-      dvec3 p[4];
-      for (int c = 0; c < 4; ++c) p[c] = mesh_.vertices[mesh_.patches[q].vertex[c]];
-      OnPatch at = locate(p, x);
+      OnPatch at = on(q, x);
       if (at.distance < best.second.distance) best = {q, at};
     };
     if (auto it = grid_.find(key(cell(x))); it != grid_.end())
@@ -82,10 +80,21 @@ class PatchFinder {
     // Off its face's patches (a curved face's cage, round-off at an edge): the nearest of them all.
     if (best.first < 0)
       for (int q : by_face_[face]) consider(q);
+    // A coincident copy takes no part in the lighting: the point is on the patch it copies
+    // (coincident_patches.h), whose corners may come in another order.
+    if (best.first >= 0 && mesh_.patches[best.first].copy_of >= 0) {
+      int original = mesh_.patches[best.first].copy_of;
+      best = {original, on(original, x)};
+    }
     return best;
   }
 
  private:
+  OnPatch on(int q, const dvec3& x) const {
+    dvec3 p[4];
+    for (int c = 0; c < 4; ++c) p[c] = mesh_.vertices[mesh_.patches[q].vertex[c]];
+    return locate(p, x);
+  }
   glm::ivec3 cell(const dvec3& x) const { return glm::ivec3(glm::floor(x / cell_)); }
   static uint64_t key(const glm::ivec3& c) {
     return (uint64_t(uint32_t(c.x) & 0x1fffff) << 42) | (uint64_t(uint32_t(c.y) & 0x1fffff) << 21) |

@@ -96,3 +96,22 @@ def test_a_face_the_object_lacks_is_refused():
     solver, floor = lamp_over_floor()
     with pytest.raises(ValueError):
         solver.surface_radiance(floor, np.array([1], np.int32), np.zeros((1, 3)))
+
+
+def test_a_stacked_copy_reads_the_light_of_the_face_it_copies():
+    """Of coincident faces one takes part in the lighting (coincident_patches.h); points on the others
+    read its light, as their corners do."""
+    scene = engine.Scene()
+    grey = scene.add_material((RHO, RHO, RHO))
+    floor = Mesh()
+    for _ in range(2):
+        floor.add_face([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], grey)
+    floor_id = floor.add_to(scene, refine="bilinear", patch_size=1.0)
+    scene.add_point_light(tuple(LAMP), (INTENSITY,) * 3)
+    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    solver.solve()
+    points = np.c_[np.random.default_rng(2).uniform(-1.9, 1.9, (50, 2)), np.zeros(50)]
+    first = solver.surface_radiance(floor_id, np.zeros(50, np.int32), points)
+    copy = solver.surface_radiance(floor_id, np.ones(50, np.int32), points)
+    assert first.min() > 0
+    np.testing.assert_array_equal(copy, first)
