@@ -75,6 +75,14 @@ def grab(window, rect, path):
     print("wrote", path, f"{crop.shape[1]} x {crop.shape[0]}", flush=True)
 
 
+def centre_camera():
+    """Fits the camera's frame to the 3D view as it is now; returns view3d()."""
+    window, area, sidebar, main = view3d()
+    with bpy.context.temp_override(window=window, area=area, region=main):
+        bpy.ops.view3d.view_center_camera()
+    return window, area, sidebar, main
+
+
 def steps():
     """The screenshot session as a generator: each yield lets Blender draw for DRAW_WAIT seconds."""
     pkg = load_package()
@@ -92,9 +100,7 @@ def steps():
     space.show_region_toolbar = False
     space.show_region_ui = True
     yield
-    window, area, sidebar, main = view3d()
-    with bpy.context.temp_override(window=window, area=area, region=main):
-        bpy.ops.view3d.view_center_camera()
+    window, area, sidebar, main = centre_camera()
     # Blender 3.4 gives Python no way to pick a sidebar tab: cycle to it as a user would (Ctrl+Tab),
     # with the mouse over the first panel's header (the sidebar's empty part passes events through
     # to the viewport).
@@ -111,9 +117,7 @@ def steps():
     space.show_region_ui = False
     space.show_gizmo = False
     yield
-    window, area, sidebar, main = view3d()
-    with bpy.context.temp_override(window=window, area=area, region=main):
-        bpy.ops.view3d.view_center_camera()
+    window, area, sidebar, main = centre_camera()
     yield
     window, area, sidebar, main = view3d()
     grab(window, camera_frame(scene, area, main), os.path.join(OUT, "baked.png"))
