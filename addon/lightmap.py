@@ -55,29 +55,40 @@ def _triangles(me, layer):
     return uv.reshape(-1, 2)[loops].reshape(t, 3, 2), faces, vertices.reshape(t, 3)
 
 
-def texels(solver, index, positions, me, layer, width, height):
-    """(height, width, 4) float32 RGBA: each covered texel's light from `solver` (object `index`,
-    whose input mesh has `positions`, object space, and me's faces), averaged over its footprint
-    as Cycles' bake does where the light changes (texel_filter.py), the rest padded, alpha 1.
+class Raster:
+    """What a lightmap's texels show of a mesh, which its light does not change: each covered
+    texel's triangle and barycentric point (texel_raster.py), each triangle's face and vertices,
+    and how its barycentric coordinates step per texel (the footprint, texel_filter.py)."""
+
+    def __init__(self, me, layer, width, height):
+        uv, self.faces, self.vertices = _triangles(me, layer)
+        self.width, self.height = width, height
+        self.texel, self.triangle, self.bary = texel_raster.rasterise(uv, width, height)
+        self.steps = texel_filter.barycentric_steps(uv * (width, height))
+
+
+def texels(solver, index, positions, raster):
+    """(height, width, 4) float32 RGBA: each covered texel of `raster` lit from `solver` (object
+    `index`, whose input mesh has `positions`, object space), averaged over its footprint as
+    Cycles' bake does where the light changes (texel_filter.py), the rest padded, alpha 1.
     Alpha is 1 on padding too: images are stored with colour premultiplied by alpha, so a padded
     texel of alpha 0 would lose its colour when packed or saved."""
-    uv, faces, vertices = _triangles(me, layer)
-    corners = positions[vertices]
+    width, height = raster.width, raster.height
+    texel, triangle, bary = raster.texel, raster.triangle, raster.bary
+    corners = positions[raster.vertices]
 
     def light(triangle, bary):
         at = np.einsum("nk,nkj->nj", bary, corners[triangle])
-        return solver.surface_radiance(index, faces[triangle].astype(np.int32), np.ascontiguousarray(at))
+        return solver.surface_radiance(index, raster.faces[triangle].astype(np.int32), np.ascontiguousarray(at))
 
-    texel, triangle, bary = texel_raster.rasterise(uv, width, height)
     rgb = np.zeros((height * width, 3), np.float32)
     rgb[texel] = light(triangle, bary)
     covered = np.zeros(height * width, bool)
     covered[texel] = True
     edge = texel_filter.edges(rgb.reshape(height, width, 3), covered.reshape(height, width)).ravel()[texel]
     if edge.any():
-        steps = texel_filter.barycentric_steps(uv * (width, height))
         for part in np.array_split(np.flatnonzero(edge), max(1, int(edge.sum()) // AVERAGED_AT_ONCE)):
-            points = texel_filter.footprint(bary[part], steps[triangle[part]])
+            points = texel_filter.footprint(bary[part], raster.steps[triangle[part]])
             values = light(np.repeat(triangle[part], points.shape[1]), points.reshape(-1, 3))
             rgb[texel[part]] = values.reshape(points.shape[0], points.shape[1], 3).mean(axis=1)
     rgb = texel_padding.pad(rgb.reshape(height, width, 3), covered.reshape(height, width))
@@ -106,6 +117,38 @@ def targets(job):
     return out, skipped
 
 
+def layout(ob, props):
+    """(width, height, RadiosityUV layer) of ob's lightmap: an existing image's size, else
+    image_size(); the map made if missing. None when the mesh has no room for another UV map."""
+    image = bpy.data.images.get(image_name(ob.name))
+    size = None if image is None else size_of(image)
+    if size is not None and size[0] > 0 and size[1] > 0:
+        width, height = size
+    else:
+        width = height = image_size(ob, props)
+    layer = uv_charts.ensure_uv_map(ob.data, max(width, height))
+    return None if layer is None else (width, height, layer)
+
+
+def size_of(image):
+    """(width, height) of an image; of a sequence (Bake Animation's), its first file's: Blender
+    reports a sequence's size only through an image user."""
+    if image.source != 'SEQUENCE':
+        return tuple(image.size)
+    path = bpy.path.abspath(image.filepath, library=image.library)
+    if not os.path.isfile(path):
+        return None
+    first = bpy.data.images.load(path, check_existing=False)
+    try:
+        return tuple(first.size)
+    finally:
+        bpy.data.images.remove(first)
+
+
+def no_room(ob):
+    return f"'{ob.name}' has no room for a UV map '{uv_charts.UV_MAP}': no lightmap"
+
+
 def bake(job, props):
     """Lightmaps of every target of a solved job. Returns (written object names, messages).
     Makes the RadiosityUV maps it needs; writes no image unless all were worked out."""
@@ -113,26 +156,25 @@ def bake(job, props):
     found, skipped = targets(job)
     messages += skipped
     for ob, m in found:
-        name = image_name(ob.name)
-        image = bpy.data.images.get(name)
-        if image is not None and image.size[0] > 0 and image.size[1] > 0:
-            width, height = image.size
-        else:
-            width = height = image_size(ob, props)
-        layer = uv_charts.ensure_uv_map(ob.data, max(width, height))
-        if layer is None:
-            messages.append(f"'{ob.name}' has no room for a UV map '{uv_charts.UV_MAP}': no lightmap")
+        laid = layout(ob, props)
+        if laid is None:
+            messages.append(no_room(ob))
             continue
-        done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], m.positions, ob.data, layer,
-                                               width, height))
+        width, height, layer = laid
+        done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], m.positions,
+                                               Raster(ob.data, layer, width, height)))
     for object_name, (width, height, rgba) in done.items():
         write_image(image_name(object_name), width, height, rgba)
     return list(done), messages
 
 
 def write_image(name, width, height, rgba):
-    """Writes (height, width, 4) pixels into image `name`, made float if missing, and packs it."""
+    """Writes (height, width, 4) pixels into image `name`, made float if missing, and packs it.
+    A sequence (Bake Animation's) becomes a single image again."""
     image = bpy.data.images.get(name)
+    if image is not None and image.source == 'SEQUENCE':
+        image.source = 'GENERATED'
+        image.generated_width, image.generated_height, image.use_generated_float = width, height, True
     if image is None or tuple(image.size) != (width, height):
         if image is not None:      # an empty image (no pixels to write into) is made anew
             bpy.data.images.remove(image)

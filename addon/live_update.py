@@ -10,7 +10,8 @@
   last got (scene_diff.diff_exports: transforms, deformed positions, objects hidden, shown or deleted,
   materials, lamps, world, and with Solver.add new objects, lamps and materials and objects whose
   topology changed); only the differences are sent, Solver.update() shoots them, and the colours
-  are written (not to hidden objects: they keep theirs). New quality settings, an object added
+  are written (not to hidden objects: they keep theirs), and with Lightmaps on, the lightmaps whose
+  light may have changed (lightmap_updates.py). New quality settings, an object added
   beyond the scene's size, or deleted and replaced objects outweighing the scene (scene_diff.outgrown)
   need a new Solver and a full solve (printed).
 - While the animation plays (play()), the frame handler never waits for the engine: the export and
@@ -44,8 +45,9 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import writeback
+from . import lightmap, writeback
 from . import export as exporter
+from .lightmap_updates import Lightmaps
 from .errors import BakeError
 from .job import BakeJob
 from .scene_diff import REBUILD_NOTE
@@ -60,6 +62,8 @@ last_written = {}
 last_sync = {}
 # {scene name: (thread, job, base, info)}: the update running during playback (play())
 playback = {}
+# {scene name: Lightmaps}: each scene's lightmaps as its live Solver last had them evaluated
+lightmap_state = {}
 
 STORE = "_radiosity_frames"      # scene ID property: {str(frame): {object name: float32 RGB, flat}}
 
@@ -68,6 +72,7 @@ counters = {"render_skips": 0}   # live updates refused because a render was run
 _served = {}                     # {scene name: frame whose colours came from frame_cache}
 _pending = {}                    # {scene name: an edit is among its updates waiting for the timer} (UI only)
 _echo = {}                       # {mesh written by the last write: _geometry() then} (its update is ours)
+_echo_images = set()             # lightmap images written since the last depsgraph update (ours too)
 
 
 # ----------------------------------------------------------------------------- guards
@@ -181,7 +186,7 @@ def forget(scene_name=None):
     """Drop the live Solver(s) and what was written (clear, file load, unregister)."""
     for name in [n for n in playback if scene_name in (None, n)]:
         playback.pop(name)[0].join()
-    for d in (live_jobs, last_written, last_sync, _served):
+    for d in (live_jobs, last_written, last_sync, _served, lightmap_state):
         if scene_name is None:
             d.clear()
         else:
@@ -189,6 +194,7 @@ def forget(scene_name=None):
     if scene_name is None:
         frame_cache.clear()
         _echo.clear()
+        _echo_images.clear()
         _pending.clear()
 
 
@@ -271,6 +277,13 @@ def _begin(scene, depsgraph, frame_change=False):
     elif job.rebuild_reason:
         info["reason"] = job.rebuild_reason
     live_jobs.pop(scene.name, None)            # base's Solver is job's (or gone) from here on
+    if scene.radiosity.lightmaps:
+        state = lightmap_state.setdefault(scene.name, Lightmaps())
+        try:
+            plan, info["lightmap_messages"] = state.prepare(job, scene.radiosity)
+            info["_lightmaps"] = (state, plan)
+        except Exception as e:   # noqa: BLE001 -- the colours are updated all the same
+            info["lightmap_messages"] = [f"lightmaps not updated: {e}"]
     return job, base, info
 
 
@@ -278,11 +291,18 @@ def _solve(job, info, budget=None):
     """Any thread: no Blender data. The colours are read here too, for _end to write: with the exact
     contact light (budget None) a read can take longer than the update itself, and the main thread
     would wait for it."""
+    lightmaps = info.pop("_lightmaps", None)
     try:
         job.solve(budget=budget)
         if job.succeeded:
             # Playing or editing, the exact contact light is left for the settle.
             info["colours"] = job.colours(exact_near_direct=job.budget is None)
+            if lightmaps is not None:
+                t = time.perf_counter()
+                state, plan = lightmaps
+                info["lightmap_pixels"] = state.evaluate(job, plan)
+                info["lightmaps_evaluated"] = list(state.evaluated)
+                info["seconds_lightmaps"] = time.perf_counter() - t
     except Exception as e:   # noqa: BLE001 -- never break playback or editing
         info.update(mode="error", reason=str(e))
 
@@ -290,6 +310,7 @@ def _solve(job, info, budget=None):
 def _end(scene, job, base, info):
     """After _solve (main thread): keep the job's Solver, write its colours; the info to record."""
     colours = info.pop("colours", None)
+    pixels = info.pop("lightmap_pixels", None) or {}
     if info["mode"] == "error":
         print("Radiosity: live update failed:", info["reason"])
         return info
@@ -302,6 +323,9 @@ def _end(scene, job, base, info):
     live_jobs[scene.name] = job
     t2 = time.perf_counter()
     written, _messages = write(scene, colours)
+    for name, rgba in pixels.items():           # complete: an image keeps its pixels until here
+        image = lightmap.write_image(lightmap.image_name(name), rgba.shape[1], rgba.shape[0], rgba)
+        _echo_images.add(image.name)
     t3 = time.perf_counter()
     st = job.stats
     points = int(st.get("points", 0))
@@ -315,7 +339,7 @@ def _end(scene, job, base, info):
                 points=points, residual=float(st.get("residual", 0.0)),
                 converged=bool(st.get("converged", True)), settled=job.settled,
                 restart=st.get("restart") or None, budgeted=job.budget is not None,
-                rays=job.rays, shots=job.shots, written=len(written))
+                rays=job.rays, shots=job.shots, written=len(written), lightmaps_written=sorted(pixels))
     return info
 
 
@@ -450,6 +474,8 @@ def _only_echo(depsgraph):
         idb = u.id
         if isinstance(idb, bpy.types.Mesh) and idb.name in _echo:
             continue
+        if isinstance(idb, bpy.types.Image) and idb.name in _echo_images:
+            continue
         if (isinstance(idb, bpy.types.Object) and not u.is_updated_transform and idb.type == 'MESH'
                 and idb.data is not None and idb.data.name in _echo):
             continue
@@ -537,6 +563,7 @@ def on_depsgraph_update(scene, depsgraph=None):
             # meanwhile (a script, a driver) looks like: the export and diff tell them apart.
             edit = not _only_echo(depsgraph)
         _echo.clear()
+        _echo_images.clear()
         if bpy.app.background:
             sync(scene, depsgraph, edit=edit)
         else:
@@ -562,6 +589,8 @@ def on_undo_redo(*_args):
     undone bake back at the next frame change."""
     last_written.clear()
     _echo.clear()
+    _echo_images.clear()
+    lightmap_state.clear()
     frame_cache.clear()
     _served.clear()
 

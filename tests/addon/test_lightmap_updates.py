@@ -1,0 +1,128 @@
+"""Lightmaps kept current by live update (only those whose light may have changed are evaluated
+again), against a fresh bake of the same state: the invariant that an update is a fresh solve,
+within 0.5% relative RMS over the covered texels (reference.relative_rms)."""
+import os
+import sys
+
+import bpy
+import numpy as np
+import pytest
+
+from conftest import ROOT, load_engine, load_package
+
+load_engine()   # when collected: a missing or broken engine fails the run (conftest.load_engine)
+sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
+from reference import relative_rms  # noqa: E402
+
+BOUND = 0.005
+
+
+@pytest.fixture(scope="module", autouse=True)
+def clean_scene_after():
+    yield
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def plane(scene, name, corners, rho):
+    """A one-sided quad (corners counter-clockwise seen from its front) of grey Diffuse BSDF `rho`."""
+    me = bpy.data.meshes.new(name)
+    me.from_pydata(corners, [], [(0, 1, 2, 3)])
+    ob = bpy.data.objects.new(name, me)
+    scene.collection.objects.link(ob)
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    bsdf = nodes.new("ShaderNodeBsdfDiffuse")
+    bsdf.inputs["Color"].default_value = (rho, rho, rho, 1)
+    mat.node_tree.links.new(bsdf.outputs[0], nodes["Material Output"].inputs[0])
+    me.materials.append(mat)
+    return ob
+
+
+def blocker_scene():
+    """A point lamp 2 m over a grey 4 m floor with a grey wall at its side, a black square blocker
+    halfway up, and a grey panel (Far) below the floor's level 5 m away, facing the lamp. Far sees
+    the lamp past the floor's edge and nothing the blocker changes: the floor hides the wall from
+    it, the floor and the wall face away, and the blocker (black) reflects nothing and stays out of
+    the lamp's rays to it."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    plane(scene, "Floor", [(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)], 0.6)
+    plane(scene, "Wall", [(-2, -2, 0), (-2, 2, 0), (-2, 2, 1), (-2, -2, 1)], 0.7)
+    plane(scene, "Blocker", [(-0.2, -0.2, 1), (-0.2, 0.2, 1), (0.2, 0.2, 1), (0.2, -0.2, 1)], 0.0)
+    plane(scene, "Far", [(5, 1, -2.5), (5, -1, -2.5), (5, -1, -1), (5, 1, -1)], 0.5)
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", 'POINT'))
+    lamp.data.energy, lamp.data.shadow_soft_size = 300.0, 0.0
+    lamp.location = (0, 0, 2)
+    scene.collection.objects.link(lamp)
+    scene.world = None
+    props = scene.radiosity
+    props.preset = 'DRAFT'
+    props.threshold = 1e-3
+    props.lightmaps = True
+    props.texel_density, props.lightmap_min_size = 12.0, 16
+    return scene
+
+
+def pixels(image):
+    out = np.empty(4 * image.size[0] * image.size[1], np.float32)
+    image.pixels.foreach_get(out)
+    return out.reshape(image.size[1], image.size[0], 4)
+
+
+def covered(addon, name, image):
+    """Flat indices of the texels of object `name`'s lightmap that lie on its faces."""
+    ob = bpy.data.objects[name]
+    return addon.lightmap.Raster(ob.data, ob.data.uv_layers["RadiosityUV"], *image.size).texel
+
+
+def lightmaps(addon, names):
+    """{name: (covered texels' rgb)} of the objects' lightmap images as they are."""
+    out = {}
+    for name in names:
+        image = bpy.data.images[name + "_Radiosity"]
+        out[name] = pixels(image)[..., :3].reshape(-1, 3)[covered(addon, name, image)].copy()
+    return out
+
+
+def fresh_lightmaps(addon, scene, names):
+    """The lightmaps of a full bake of the scene as it is."""
+    live = scene.radiosity.live_update
+    scene.radiosity.live_update = False
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = live
+    return lightmaps(addon, names)
+
+
+def test_live_update_keeps_lightmaps_a_fresh_bakes_and_leaves_those_whose_light_stays(addon):
+    """Moving the blocker moves its shadow on the floor and what the floor and the wall reflect.
+    After the live update the floor's and the wall's lightmaps are a fresh bake's of the new state;
+    Far's light does not change, and its lightmap is not evaluated again (the update's record names
+    the lightmaps it evaluated) and stays as it was."""
+    live = addon.live_update
+    scene = blocker_scene()
+    names = ("Floor", "Wall", "Far")
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    before = lightmaps(addon, names)
+    scene.radiosity.live_update = True
+    bpy.data.objects["Blocker"].location = (0.3, -0.25, 0.0)
+    bpy.context.view_layer.update()                   # depsgraph_update_post -> live update
+    info = live.last_sync[scene.name]
+    assert info["mode"] == "incremental", info
+    # The first update after a bake evaluates all; each later one only those the move reaches.
+    bpy.data.objects["Blocker"].location = (0.35, -0.3, 0.0)
+    bpy.context.view_layer.update()
+    info = live.last_sync[scene.name]
+    assert info["mode"] == "incremental", info
+    assert {"Floor", "Wall", "Blocker"} <= set(info["lightmaps_evaluated"]), info
+    assert "Far" not in info["lightmaps_evaluated"], info
+    updated = lightmaps(addon, names)
+    assert relative_rms(updated["Floor"], before["Floor"]) > 0.05     # the shadow moved
+    fresh = fresh_lightmaps(addon, scene, names)
+    for name in names:
+        err = relative_rms(updated[name], fresh[name])
+        print(f"{name}: live update against a fresh bake: {100 * err:.3f}% RMS over {len(fresh[name])} texels")
+        assert err < BOUND, name
+    np.testing.assert_allclose(updated["Far"], before["Far"], rtol=1e-5)
+
