@@ -3,6 +3,8 @@
 From a script (execute) the bake runs synchronously. From the UI (invoke) it runs modal: each frame's
 solve runs in a Python thread (the engine releases the GIL), a timer polls it, Esc cancels.
 Colours are written only after every frame solved; a cancel or an error leaves them untouched.
+With Lightmaps on, bake_animation writes each frame's lightmaps as OpenEXR sequences
+(lightmap_sequence.py), put in place and shown by the images only when every frame solved.
 
 bake_animation solves the first frame in full and every later frame incrementally on the same engine
 Solver (job.BakeJob(base=previous job)): only what changed since the previous frame is re-shot.
@@ -13,6 +15,7 @@ import threading
 import bpy
 
 from . import bake_stats, display, farm, lightmap, live_update, writeback
+from .lightmap_sequence import SequenceBake
 from .errors import BakeError
 from .job import BakeJob
 from .scene_diff import REBUILD_NOTE
@@ -65,9 +68,15 @@ def prepare_frame(context, frame, animation, base=None):
     return job
 
 
-def bake_frames(context, frames, animation, progress=None, on_frame=None):
+def sequence_for(context, animation):
+    """The SequenceBake of an animation bake with Lightmaps on, else None."""
+    return SequenceBake(context.scene) if animation and context.scene.radiosity.lightmaps else None
+
+
+def bake_frames(context, frames, animation, progress=None, on_frame=None, sequence=None):
     """Synchronous bake. progress(fraction, residual) -> False cancels; on_frame(frame, colours) as
-    each frame is solved (a farm's chunk writes it out).
+    each frame is solved (a farm's chunk writes it out); `sequence` (sequence_for) takes each frame's
+    lightmaps.
     Returns (jobs, {frame: colours}) with colours None when cancelled. Raises BakeError.
     The first frame is solved in full, later frames incrementally on the same Solver."""
     jobs, results = [], {}
@@ -78,6 +87,8 @@ def bake_frames(context, frames, animation, progress=None, on_frame=None):
         for i, f in enumerate(frames):
             job = prepare_frame(context, f, animation, jobs[-1] if jobs else None)
             jobs.append(job)
+            if sequence is not None:
+                sequence.prepare(job, scene.radiosity)
 
             def overall(fraction, residual, i=i):
                 return True if progress is None else progress((i + fraction) / n, residual)
@@ -85,6 +96,8 @@ def bake_frames(context, frames, animation, progress=None, on_frame=None):
             if not job.succeeded:
                 return jobs, None
             results[f] = job.colours()
+            if sequence is not None:
+                sequence.write(f, sequence.evaluate(job))
             if on_frame is not None:
                 on_frame(f, results[f])
     finally:
@@ -93,13 +106,16 @@ def bake_frames(context, frames, animation, progress=None, on_frame=None):
     return jobs, results
 
 
-def finish(context, jobs, results, animation, report):
-    """Write the colours (current frame), fill the cache and scene.radiosity's results. The last
-    frame's Solver becomes the scene's live one (live update continues from it)."""
+def finish(context, jobs, results, animation, report, sequence=None):
+    """Write the colours (current frame), fill the cache and scene.radiosity's results, put the
+    lightmap sequences in place. The last frame's Solver becomes the scene's live one (live update
+    continues from it)."""
     stats = bake_stats.summary(jobs)
     props = context.scene.radiosity
     if props.lightmaps and not animation:
         stats["warnings"] += lightmap.bake(jobs[-1], props)[1]
+    if sequence is not None:
+        stats["warnings"] += sequence.commit()
     written = conclude(context, results, stats, animation, report)
     live_update.live_jobs[context.scene.name] = jobs[-1]
     return written
@@ -176,15 +192,20 @@ class _Bake:
                 return {'CANCELLED'}
             return self._farm_finish(context, run)
         with live_update.suspended():
+            sequence = sequence_for(context, self.animation)
             try:
-                jobs, results = bake_frames(context, _frames(context.scene, self.animation), self.animation)
+                jobs, results = bake_frames(context, _frames(context.scene, self.animation), self.animation,
+                                            sequence=sequence)
+                if results is None:
+                    self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
+                    return {'CANCELLED'}
+                finish(context, jobs, results, self.animation, self.report, sequence)
             except BakeError as e:
                 self.report({'ERROR'}, f"Radiosity: {e}")
                 return {'CANCELLED'}
-            if results is None:
-                self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
-                return {'CANCELLED'}
-            finish(context, jobs, results, self.animation, self.report)
+            finally:
+                if sequence is not None:
+                    sequence.discard()      # after commit() nothing is left to discard
         return {'FINISHED'}
 
     # ---------------------------------------------------------------- modal
@@ -199,6 +220,7 @@ class _Bake:
                 return {'CANCELLED'}
             return self._modal_begin(context)
         self._jobs, self._results = [], {}
+        self._sequence = sequence_for(context, self.animation)
         self._start_frame = scene.frame_current
         self._job = None
         self._thread = None
@@ -271,15 +293,21 @@ class _Bake:
 
     def _start(self, context):
         f = self._frames[self._index]
+        sequence = self._sequence
         try:
             self._job = prepare_frame(context, f, self.animation, self._jobs[-1] if self._jobs else None)
+            if sequence is not None:
+                sequence.prepare(self._job, context.scene.radiosity)
         except Exception as e:   # noqa: BLE001 -- reported (_failure); live update must not stay held
             self.report({'ERROR'}, _failure(e))
+            if sequence is not None:
+                sequence.discard()
             self._restore_frame(context)
             return False
         self._jobs.append(self._job)
         job = self._job
         self._read = None            # the frame's colours, or the exception reading them raised
+        self._lightmaps = {}         # the frame's lightmaps that changed (SequenceBake.evaluate)
 
         def run():
             try:
@@ -288,6 +316,8 @@ class _Bake:
                 # the main thread would freeze Blender.
                 if job.succeeded:
                     self._read = job.colours()
+                    if sequence is not None:
+                        self._lightmaps = sequence.evaluate(job)
             except Exception as e:   # noqa: BLE001 -- the solve's is in job.error; both reported by modal()
                 self._read = e
         self._thread = threading.Thread(target=run, name="radiosity-solve", daemon=True)
@@ -343,6 +373,8 @@ class _Bake:
             self._job.cancel()
         if self._thread is not None:
             self._thread.join()
+        if self._sequence is not None:
+            self._sequence.discard()
         self._cleanup(context)
         self._restore_frame(context)
 
@@ -371,6 +403,8 @@ class _Bake:
         if isinstance(self._read, Exception):
             raise self._read
         self._results[self._frames[self._index]] = self._read
+        if self._sequence is not None:
+            self._sequence.write(self._frames[self._index], self._lightmaps)
         self._index += 1
         if self._index < n:
             if not self._start(context):
@@ -379,7 +413,7 @@ class _Bake:
             return {'PASS_THROUGH'}
         self._cleanup(context)
         self._restore_frame(context)
-        finish(context, self._jobs, self._results, self.animation, self.report)
+        finish(context, self._jobs, self._results, self.animation, self.report, self._sequence)
         return {'FINISHED'}
 
     def cancel(self, context):          # Blender closes the window / file while running
