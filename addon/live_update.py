@@ -277,7 +277,9 @@ def _begin(scene, depsgraph, frame_change=False):
     elif job.rebuild_reason:
         info["reason"] = job.rebuild_reason
     live_jobs.pop(scene.name, None)            # base's Solver is job's (or gone) from here on
-    if scene.radiosity.lightmaps:
+    # Baked frames' lightmaps are sequences the images play (lightmap_sequence.py): kept while the
+    # frames are, beyond their range too, as the images hold their first and last frames there.
+    if scene.radiosity.lightmaps and not frames_of(scene):
         state = lightmap_state.setdefault(scene.name, Lightmaps())
         try:
             plan, info["lightmap_messages"] = state.prepare(job, scene.radiosity)

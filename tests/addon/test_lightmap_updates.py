@@ -170,10 +170,14 @@ def test_bake_animation_writes_each_frames_lightmaps_as_an_exr_sequence(addon, t
         assert bpy.path.abspath(image.filepath) == str(files[name][0])
     assert (node.image_user.frame_start, node.image_user.frame_duration, node.image_user.frame_offset) == (1, 3, 0)
     assert node.image_user.use_auto_refresh
+    scene.radiosity.live_update = True      # past the baked range it updates, and leaves the sequences
     for k in (1, 2, 3, 4):                  # the node shows file k on frame k, the last one after it
         scene.frame_set(k)
         material = bpy.data.materials["Floor"].evaluated_get(bpy.context.evaluated_depsgraph_get())
         assert material.node_tree.nodes[node.name].image_user.frame_current == min(k, 3)
+    assert addon.live_update.last_sync[scene.name]["frame"] == 4
+    assert all(bpy.data.images[f"{name}_Radiosity"].source == 'SEQUENCE' for name in names)
+    scene.radiosity.live_update = False
     baked = {name: [read_exr(str(p)) for p in files[name]] for name in names}
     assert relative_rms(baked["Floor"][2][..., :3], baked["Floor"][0][..., :3]) > 0.05   # the shadow moved
     for k in (1, 2, 3):
