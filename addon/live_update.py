@@ -290,23 +290,28 @@ def _begin(scene, depsgraph, frame_change=False):
 
 
 def _solve(job, info, budget=None):
-    """Any thread: no Blender data. The colours are read here too, for _end to write: with the exact
-    contact light (budget None) a read can take longer than the update itself, and the main thread
-    would wait for it."""
+    """Any thread: no Blender data. The colours are read here too, and the lightmaps whose light may
+    have changed evaluated, for _end to write: with the exact contact light (budget None) a read can
+    take longer than the update itself, and the main thread would wait for it; lightmaps longer still."""
     lightmaps = info.pop("_lightmaps", None)
     try:
         job.solve(budget=budget)
         if job.succeeded:
             # Playing or editing, the exact contact light is left for the settle.
             info["colours"] = job.colours(exact_near_direct=job.budget is None)
-            if lightmaps is not None:
-                t = time.perf_counter()
-                state, plan = lightmaps
-                info["lightmap_pixels"] = state.evaluate(job, plan)
-                info["lightmaps_evaluated"] = list(state.evaluated)
-                info["seconds_lightmaps"] = time.perf_counter() - t
     except Exception as e:   # noqa: BLE001 -- never break playback or editing
         info.update(mode="error", reason=str(e))
+        return
+    if lightmaps is not None and job.succeeded:
+        t = time.perf_counter()
+        state, plan = lightmaps
+        try:
+            info["lightmap_pixels"] = state.evaluate(job, plan)
+        except Exception as e:   # noqa: BLE001 -- the colours are written all the same
+            state.forget()
+            info.setdefault("lightmap_messages", []).append(f"lightmaps not updated: {e}")
+        info["lightmaps_evaluated"] = list(state.evaluated)
+        info["seconds_lightmaps"] = time.perf_counter() - t
 
 
 def _end(scene, job, base, info):
