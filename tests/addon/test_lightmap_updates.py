@@ -96,6 +96,53 @@ def fresh_lightmaps(addon, scene, names):
     return lightmaps(addon, names)
 
 
+def square(x, y, z, half, emission=0.0):
+    """A horizontal square's MeshExport-like record (what shadow_reach reads)."""
+    from types import SimpleNamespace
+    return SimpleNamespace(positions=np.array([[-half, -half, 0], [half, -half, 0], [half, half, 0], [-half, half, 0]], float),
+                           transform=np.array([[1, 0, 0, x], [0, 1, 0, y], [0, 0, 1, z], [0, 0, 0, 1]], float),
+                           visible=True, corner_emission=None, face_materials=np.array([1 if emission else 0]))
+
+
+def exported(meshes, lights=(), world=(0, 0, 0)):
+    from types import SimpleNamespace
+    materials = [SimpleNamespace(emission=(0, 0, 0)), SimpleNamespace(emission=(5, 5, 5))]
+    return SimpleNamespace(meshes=meshes, materials=materials, lights=list(lights), world=np.array(world, float),
+                           world_map=None)
+
+
+def point_lamp(x, y, z):
+    from types import SimpleNamespace
+    return SimpleNamespace(kind="point", position=np.array([x, y, z], float), radius=0.0, visible=True,
+                           intensity=np.ones(3), irradiance=None, radiance=None)
+
+
+def test_a_move_reaches_the_objects_it_may_shade_from_a_direct_source(addon):
+    """Two floors under a lamp, a small blocker moving: the floor below it is reached, the one
+    beside whose rays to the lamp it stays far from is not; every object is, if the mover emits or
+    the world lights the scene. The sun's rays come from far along its direction."""
+    reached = addon.shadow_reach.reached
+    lamp = point_lamp(0, 0, 3)
+    floors = [square(0, 0, 0, 1.0), square(6, 0, 0, 1.0)]
+    old = exported(floors + [square(0.2, 0, 1.5, 0.1)], [lamp])
+    new = exported(floors + [square(-0.2, 0, 1.5, 0.1)], [lamp])
+    assert reached(old, new, {2}, [0, 1]) == {0}
+    # Moved over the far floor's rays, where it was or where it is: reached.
+    assert reached(old, exported(floors + [square(3, 0, 1.5, 0.1)], [lamp]), {2}, [0, 1]) == {0, 1}
+    assert reached(exported(floors + [square(0.2, 0, 1.5, 0.1, emission=1)], [lamp]), new, {2}, [0, 1]) == {0, 1}
+    assert reached(old, exported(floors + [square(-0.2, 0, 1.5, 0.1)], [lamp], world=(0.1, 0.1, 0.1)), {2},
+                   [0, 1]) == {0, 1}
+    # An emitting mesh is a source like a lamp: the blocker between it and the far floor reaches it.
+    glow = square(6, 0, 3, 0.5, emission=1)
+    assert reached(exported(floors + [square(6, 0, 1.5, 0.1), glow]), exported(floors + [square(6.2, 0, 1.5, 0.1), glow]),
+                   {2}, [0, 1]) == {1}
+    from types import SimpleNamespace
+    sun = SimpleNamespace(kind="sun", direction=np.array([0, 0, -1.0]), angle=0.01, visible=True,
+                          intensity=None, irradiance=np.ones(3), radiance=None)
+    high = [square(6, 0, 20, 0.5), square(6.1, 0, 20, 0.5)]     # far above the far floor
+    assert reached(exported(floors + [high[0]], [sun]), exported(floors + [high[1]], [sun]), {2}, [0, 1]) == {1}
+
+
 def test_live_update_keeps_lightmaps_a_fresh_bakes_and_leaves_those_whose_light_stays(addon):
     """Moving the blocker moves its shadow on the floor and what the floor and the wall reflect.
     After the live update the floor's and the wall's lightmaps are a fresh bake's of the new state;
