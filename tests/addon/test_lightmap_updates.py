@@ -4,6 +4,7 @@ state: the invariant that an update is a fresh solve, within 0.5% relative RMS o
 texels (reference.relative_rms)."""
 import os
 import sys
+import threading
 
 import bpy
 import numpy as np
@@ -257,3 +258,27 @@ def test_a_failed_bake_animation_leaves_the_lightmaps_and_their_files_as_they_we
     assert image.source != 'SEQUENCE' and image.packed_file is not None
     np.testing.assert_array_equal(pixels(image), before)
     assert list((tmp_path / "anim_lightmaps").iterdir()) == []
+
+
+def test_the_uis_bake_animation_evaluates_lightmaps_in_its_worker_and_writes_nothing_on_esc(addon, tmp_path, monkeypatch):
+    """The modal path (test_addon.modal_bake): each frame's lightmaps evaluated in the worker thread,
+    written on success; Esc after the first frame leaves the images and their folder as they were."""
+    from test_addon import modal_bake
+    scene, _node = animated_blocker_scene(str(tmp_path))
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    before = pixels(bpy.data.images["Floor_Radiosity"]).copy()
+    on_main = []
+    evaluate = addon.lightmap_updates.Lightmaps.evaluate
+    monkeypatch.setattr(addon.lightmap_updates.Lightmaps, "evaluate", lambda self, *args: (
+        on_main.append(threading.current_thread() is threading.main_thread()), evaluate(self, *args))[1])
+    result, reports, _ = modal_bake(addon, animation=True, stop=lambda op: op._index == 1)
+    assert result == {'CANCELLED'}, reports
+    image = bpy.data.images["Floor_Radiosity"]
+    assert image.source != 'SEQUENCE'
+    np.testing.assert_array_equal(pixels(image), before)
+    assert list((tmp_path / "anim_lightmaps").iterdir()) == []
+    result, reports, _ = modal_bake(addon, animation=True)
+    assert result == {'FINISHED'}, reports
+    assert on_main and not any(on_main)
+    assert image.source == 'SEQUENCE'
+    assert len(list((tmp_path / "anim_lightmaps" / "Floor_Radiosity").iterdir())) == 3
