@@ -71,7 +71,7 @@ def point(image_name, first_path, first, last, size):
     image.use_fake_user = True
     if image.packed_file is not None:
         image.unpack(method='REMOVE')      # a packed image cannot be a sequence
-    image.filepath = bpy.path.relpath(first_path) if bpy.data.filepath else first_path
+    image.filepath = bpy.path.relpath(first_path)       # the folder moves with the .blend
     image.source = 'SEQUENCE'
     image.reload()
     # The number shown at frame f: (f - frame_start + 1, within 1..frame_duration) + frame_offset = f.

@@ -254,6 +254,9 @@ class _Bake:
         except BakeError as e:
             self.report({'ERROR'}, f"Radiosity: {e}")
             return {'CANCELLED'}
+        if context.scene.radiosity.lightmaps:
+            stats["warnings"] = stats["warnings"] + ["lightmaps: a farm's Bake Animation writes none; "
+                                                     "bake the animation on this machine for their sequences"]
         with live_update.suspended():
             conclude(context, results, stats, True, self.report)
         self.report({'INFO'}, f"Radiosity: the farm baked {len(results)} frames in {run.chunks} chunks "

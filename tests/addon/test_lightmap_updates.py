@@ -260,6 +260,14 @@ def test_a_failed_bake_animation_leaves_the_lightmaps_and_their_files_as_they_we
     assert list((tmp_path / "anim_lightmaps").iterdir()) == []
 
 
+def test_bake_animation_of_an_unsaved_file_says_where_lightmaps_would_go(addon):
+    scene = blocker_scene()
+    scene.frame_start, scene.frame_end = 1, 2
+    assert bpy.ops.radiosity.bake_animation() == {'FINISHED'}
+    assert "save the .blend first" in scene.radiosity.last_warnings
+    assert "Floor_Radiosity" not in bpy.data.images
+
+
 def test_the_uis_bake_animation_evaluates_lightmaps_in_its_worker_and_writes_nothing_on_esc(addon, tmp_path, monkeypatch):
     """The modal path (test_addon.modal_bake): each frame's lightmaps evaluated in the worker thread,
     written on success; Esc after the first frame leaves the images and their folder as they were."""
