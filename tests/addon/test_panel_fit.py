@@ -146,8 +146,10 @@ def leaf(item, w, where, cut):
                     fits(e.name, (1 - SPLIT) * w - PAD - ARROW, where, cut)
         elif p.type == 'ENUM':
             fits(getattr(data, name) and p.enum_items[getattr(data, name)].name, w - PAD - ARROW, where, cut)
-        else:
-            fits(f"{text}: {getattr(data, name)}" if text else "", w - 2 * PAD - CLIP, where, cut)
+        elif text:
+            value = getattr(data, name)
+            shown = f"{value:.{p.precision}f}" if p.type == 'FLOAT' else str(value)
+            fits(f"{text}: {shown}", w - 2 * PAD - CLIP, where, cut)
 
 
 def draw_all(addon, cut):
@@ -160,6 +162,10 @@ def draw_all(addon, cut):
         layout = Recorder()
         cls.draw(SimpleNamespace(layout=layout), bpy.context)
         layout.measure(width, f"{place} {cls.bl_label}", cut)
+        if hasattr(cls, "draw_header"):        # beside the header's title
+            layout = Recorder()
+            cls.draw_header(SimpleNamespace(layout=layout), bpy.context)
+            layout.measure(width - 2 * ARROW - text_width(cls.bl_label), f"{place} {cls.bl_label} header", cut)
 
 
 @pytest.fixture
