@@ -2,14 +2,14 @@
 seconds from this machine's rates (preferences.machine), learnt from its last bakes.
 
     points  ~ POINTS_PER_PATCH_AREA * surface area / patch_size^2
-    rays    ~ points * samples_indirect * ln(1 / threshold) * RAYS_FACTOR: reflected shots, which go on
-              until the threshold, trace most rays (dim shots sample distant receivers less,
-              Solver::Impl::far_samples)
+    rays    ~ points * (samples_indirect + SAMPLES_FLOOR) * ln(1 / threshold) * RAYS_FACTOR: reflected
+              shots, which go on until the threshold, trace most rays (dim shots sample distant
+              receivers less, but not below a floor: Solver::Impl::far_samples)
     seconds ~ seconds_per_point * points + seconds_per_ray * rays
 
 A bake of the scene corrects the first two for it (its points and rays over what the bounds gave:
-props.estimate_points_scale, props.estimate_rays_scale), and every bake on the machine tells it the
-rates. What the estimate is worth against actual bakes: bench/estimate.py.
+props.estimate_points_scale, props.estimate_rays_scale) and the rates (its time over what they give:
+props.estimate_seconds_scale), and every bake on the machine tells it the rates. What the estimate is worth against actual bakes: bench/estimate.py.
 """
 import functools
 import math
@@ -20,8 +20,12 @@ from . import export as exporter
 from . import preferences
 from .settings import preset_values
 
+# Fitted to the sample scenes' bakes at draft, default and high: per point and e-fold of the threshold
+# they trace 29-112 rays (a scene's own figure holds within 15% across presets) per indirect sample
+# and 1.5 more; RAYS_FACTOR is the geometric middle, so a scene not yet baked is within 0.4-2.5x.
 POINTS_PER_PATCH_AREA = 3.0
-RAYS_FACTOR = 80.0            # the sample bakes trace 50-90 rays a point per indirect sample and e-fold
+SAMPLES_FLOOR = 1.5
+RAYS_FACTOR = 70.0
 KEEP = 9                      # bakes the rates are the median of: one slow bake moves them little
 SPREAD = 1.4                  # the range shown: estimate / SPREAD .. estimate * SPREAD, when the scene
 UNSEEN = 1.5                  # has been baked on this machine; wider by UNSEEN when either is new
@@ -60,7 +64,7 @@ def model_counts(scene, patch_size_relative, samples_indirect, threshold):
         return 0.0, 0.0
     patch = patch_size_relative * diag
     points = POINTS_PER_PATCH_AREA * area / (patch * patch)
-    return points, points * samples_indirect * math.log(1.0 / min(threshold, 0.5)) * RAYS_FACTOR
+    return points, points * (samples_indirect + SAMPLES_FLOOR) * math.log(1.0 / min(threshold, 0.5)) * RAYS_FACTOR
 
 
 def _ratios(rates):
@@ -68,9 +72,13 @@ def _ratios(rates):
 
 
 def _seconds(props, points, rays):
-    """(low, high) seconds for these counts on this machine."""
+    """(low, high) seconds for these counts on this machine. A scene baked here before also brings
+    its own time against the rates (its rays may cost more than most, the machine may be busier now):
+    half-way between the two, in ratio, so that a one-off slow bake counts half."""
     rates = preferences.machine()
     mid = rates.seconds_per_point * points + rates.seconds_per_ray * rays
+    if props.estimate_seconds_scale > 0 and rates.seconds_per_ray > 0:
+        mid *= math.sqrt(props.estimate_seconds_scale * preferences.SECONDS_PER_RAY / rates.seconds_per_ray)
     spread = SPREAD * (1.0 if props.estimate_points_scale > 0 else UNSEEN) \
         * (1.0 if len(_ratios(rates)) >= 3 else UNSEEN)
     return mid / spread, mid * spread
@@ -118,6 +126,7 @@ def record(scene, stats):
     props.estimate_rays_scale = rays / model_rays
     rates = preferences.machine()
     base = preferences.SECONDS_PER_POINT * points + preferences.SECONDS_PER_RAY * rays
+    props.estimate_seconds_scale = secs / base
     ratios = (_ratios(rates) + [secs / base])[-KEEP:]
     k = float(np.median(ratios))
     rates.seconds_per_point = preferences.SECONDS_PER_POINT * k

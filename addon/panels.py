@@ -50,7 +50,7 @@ def time_range(low, high):
 def light_left(fraction):
     """The residual as a share of the light, in plain words."""
     pct = 100.0 * fraction
-    return f"{pct:.1f}%" if pct >= 0.1 else f"{pct:.2f}%" if pct >= 0.01 else "<0.01%"
+    return f"{pct:.2g}%" if pct >= 0.01 else "<0.01%"
 
 
 def wrap(text, width=WRAP):
@@ -68,6 +68,7 @@ def wrap(text, width=WRAP):
 
 
 def _labels(layout, text, icon='NONE'):
+    """`text` wrapped into labels, the icon on the first, the rest indented to match."""
     col = layout.column(align=True)
     for i, line in enumerate(wrap(text)):
         col.label(text=line, icon=icon if i == 0 else 'BLANK1' if icon != 'NONE' else 'NONE')
@@ -235,15 +236,15 @@ def draw_results(layout, context):
         listed = json.loads(props.last_effect_items)
     except ValueError:
         listed = []
-    for kind, title in ((effects.SIMULATED, "Simulated"), (effects.APPROXIMATED, "Approximated"),
-                        (effects.LEFT_OUT, "Left out")):
+    for kind, title, icon in ((effects.SIMULATED, "Simulated", 'CHECKMARK'),
+                              (effects.APPROXIMATED, "Approximated", 'DOT'), (effects.LEFT_OUT, "Left out", 'REMOVE')):
         part = [(short, detail) for k, short, detail in listed if k == kind]
         if not part:
             continue
         col = layout.column(align=True)
         col.label(text=f"{title}:")
         for short, detail in part:
-            col.operator(RADIOSITY_OT_effect.bl_idname, text=short, emboss=False).detail = detail
+            col.operator(RADIOSITY_OT_effect.bl_idname, text=short, icon=icon, emboss=False).detail = detail
     if props.last_warnings:
         box = layout.box()
         for w in props.last_warnings.split("\n")[:6]:
@@ -299,7 +300,7 @@ def _panels(place, name, closed):
 
     return (panel("", "Radiosity", draw_main, {'DEFAULT_CLOSED'} if closed else ()),
             panel("_settings", "Settings", draw_settings, {'DEFAULT_CLOSED'}),
-            panel("_live", "Live Update", draw_live, header=draw_live_header),
+            panel("_live", "Live Update", draw_live, {'DEFAULT_CLOSED'}, header=draw_live_header),
             panel("_animation", "Bake Animation", draw_animation, {'DEFAULT_CLOSED'}),
             panel("_output", "Output", draw_output),
             panel("_results", "Last Bake", draw_results),

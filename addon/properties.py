@@ -107,9 +107,11 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
     last_frames: IntProperty(name="Frames", default=0)
     last_warnings: StringProperty(name="Warnings", default="")
     has_results: BoolProperty(default=False)
-    # this scene's points and rays over what its bounds gave, at its last bake (estimate.record)
+    # this scene's points and rays over what its bounds gave, and its time over what the starting
+    # rates give for them, at its last bake (estimate.record); 0: not baked here
     estimate_points_scale: FloatProperty(default=0.0)
     estimate_rays_scale: FloatProperty(default=0.0)
+    estimate_seconds_scale: FloatProperty(default=0.0)
 
     show_bake: BoolProperty(
         name="Show Bake", default=False, update=display.on_toggle,
