@@ -244,7 +244,9 @@ def draw_results(layout, context):
         col = layout.column(align=True)
         col.label(text=f"{title}:")
         for short, detail in part:
-            col.operator(RADIOSITY_OT_effect.bl_idname, text=short, icon=icon, emboss=False).detail = detail
+            row = col.row(align=True)
+            row.alignment = 'LEFT'            # a button without emboss centres its text otherwise
+            row.operator(RADIOSITY_OT_effect.bl_idname, text=short, icon=icon, emboss=False).detail = detail
     if props.last_warnings:
         box = layout.box()
         for w in props.last_warnings.split("\n")[:6]:
