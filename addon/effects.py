@@ -75,8 +75,3 @@ def items(sx):
 def sentence(listed):
     """The report's sentence of items(): what is simulated or approximated, then what is left out."""
     return ", ".join([detail for kind, _, detail in listed if kind != LEFT_OUT] + [LEFT_OUT_TEXT])
-
-
-def describe(sx):
-    """The report's sentence of the scene exported."""
-    return sentence(items(sx))

@@ -9,7 +9,8 @@ seconds from this machine's rates (preferences.machine), learnt from its last ba
 
 A bake of the scene corrects the first two for it (its points and rays over what the bounds gave:
 props.estimate_points_scale, props.estimate_rays_scale) and the rates (its time over what they give:
-props.estimate_seconds_scale), and every bake on the machine tells it the rates. What the estimate is worth against actual bakes: bench/estimate.py.
+props.estimate_seconds_scale), and every bake on the machine tells it the rates. What the estimate
+is worth against actual bakes: bench/estimate.py.
 """
 import functools
 import math
@@ -22,7 +23,7 @@ from .settings import preset_values
 
 # Fitted to the sample scenes' bakes at draft, default and high: per point and e-fold of the threshold
 # they trace 29-112 rays (a scene's own figure holds within 15% across presets) per indirect sample
-# and 1.5 more; RAYS_FACTOR is the geometric middle, so a scene not yet baked is within 0.4-2.5x.
+# and 1.5 more; RAYS_FACTOR is their geometric middle, for a scene not yet baked.
 POINTS_PER_PATCH_AREA = 3.0
 SAMPLES_FLOOR = 1.5
 RAYS_FACTOR = 70.0

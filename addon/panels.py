@@ -81,7 +81,10 @@ class RADIOSITY_MT_quality(bpy.types.Menu):
 
     def draw(self, context):
         props = context.scene.radiosity
-        times = estimate.preset_times(context.scene)
+        try:
+            times = estimate.preset_times(context.scene)
+        except Exception:   # noqa: BLE001 -- the menu without times rather than none (no engine)
+            times = {}
         for item in props.bl_rna.properties["preset"].enum_items:
             low, high = times.get(item.identifier, (0.0, 0.0))
             text = f"{item.name}   {time_range(low, high)}" if high > 0 else item.name

@@ -1,6 +1,9 @@
 """The panel's time estimate against the bakes it estimates: every sample at every preset.
 
-    blender -b --factory-startup --python bench/estimate.py -- [preset ...]   (draft default high unless named)
+    blender -b --factory-startup --python bench/estimate.py -- [preset ...] [sample ...]
+
+Draft, default and high on every sample unless named; a run that names any writes
+bench/results/estimate_<names>.* instead (reference on the Cornell box alone: -- reference cornell_box).
 
 For each sample, opened afresh: the estimate of every preset before any bake of it ("cold": the
 machine's rates so far, the counts from the object bounds), then a calibration bake at Default, then
@@ -41,12 +44,13 @@ def bake(scene, preset):
 
 def main():
     args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    presets = [p.upper() for p in args] or ["DRAFT", "DEFAULT", "HIGH"]
+    samples = [(name, frame) for name, frame in SAMPLES if name in args] or SAMPLES
+    presets = [a.upper() for a in args if a not in dict(SAMPLES)] or ["DRAFT", "DEFAULT", "HIGH"]
     pkg = load_package()
     pkg.register()
     est = pkg.estimate
     rows = []
-    for name, frame in SAMPLES:
+    for name, frame in samples:
         scene = open_sample(name, frame)
         cold = est.preset_times(scene)
         cold_counts = {}
@@ -74,7 +78,7 @@ def main():
     worst = {k: max(max(float(r[f"{k}_ratio"]), 1 / float(r[f"{k}_ratio"])) for r in rows) for k in ("cold", "warm")}
     print(f"worst ratio (either way): cold {worst['cold']:.2f}, calibrated {worst['warm']:.2f}; goal 2", flush=True)
     fields = list(rows[0])
-    tables.write(tables.path_for("estimate"), fields, rows, "The panel's time estimate against the bake",
+    tables.write(tables.path_for("_".join(["estimate"] + args)), fields, rows, "The panel's time estimate against the bake",
                  [("scene", "scene", None), ("preset", "preset", None), ("actual", "bake", tables.seconds),
                   ("points", "vertices", tables.count), ("cold_points_ratio", "cold vertices / bake", None),
                   ("rays", "rays", tables.mega), ("cold_rays_ratio", "cold rays / bake", None),
