@@ -219,3 +219,32 @@ def test_the_recorder_sees_a_cut():
     layout.measure(WIDTHS["sidebar"], "test", cut)
     assert len(cut) == 1 and "WWW" in cut[0]
     assert 0 < text_width("Radiosity") < WIDTHS["sidebar"] / 2
+
+
+def labels_of(layout):
+    out = []
+    for item in layout.items:
+        out += labels_of(item) if isinstance(item, Recorder) else [item[1]] if item[0] == "label" else []
+    return out
+
+
+def test_last_bake_shows_a_live_update_made_without_a_bake(addon):
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, "cornell_box.blend"))
+    scene = bpy.context.scene
+    addon.live_update.last_sync[scene.name] = dict(LIVE[3], converged=True, residual=0.001)
+    try:
+        layout = Recorder()
+        addon.panels.draw_results(layout, bpy.context)
+    finally:
+        addon.live_update.last_sync.pop(scene.name, None)
+    assert labels_of(layout) == ["Live update, 12 s", "Converged (0.1% light left)"]
+
+
+def test_the_quality_menu_gives_each_presets_time(addon):
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, "cornell_box.blend"))
+    shown = []
+    layout = SimpleNamespace(prop_enum=lambda _data, _name, value, text: shown.append((value, text)))
+    addon.panels.RADIOSITY_MT_quality.draw(SimpleNamespace(layout=layout), bpy.context)
+    assert [v for v, _ in shown] == ['DRAFT', 'DEFAULT', 'HIGH', 'REFERENCE']
+    assert all(t.split()[0] in ("Draft", "Default", "High", "Reference") and t.endswith((" s", " min", " h"))
+               for _, t in shown), shown
