@@ -70,7 +70,8 @@ def main():
             for key, (low, high) in (("cold", cold[preset]), ("warm", warm)):
                 mid = math.sqrt(low * high)
                 row.update({f"{key}_low": f"{low:.3f}", f"{key}_high": f"{high:.3f}", f"{key}_mid": f"{mid:.3f}",
-                            f"{key}_ratio": f"{mid / actual:.2f}", f"{key}_in_range": "yes" if low <= actual <= high else "no"})
+                            f"{key}_ratio": f"{mid / actual:.2f}",
+                            f"{key}_in_range": "yes" if low <= actual <= high else "no"})
             rows.append(row)
             print(f"{row['scene']:16} {preset.lower():9} actual {actual:7.2f} s   cold {row['cold_mid']:>8} s "
                   f"(x{row['cold_ratio']}, {row['cold_in_range']})   calibrated {row['warm_mid']:>8} s "
@@ -78,7 +79,8 @@ def main():
     worst = {k: max(max(float(r[f"{k}_ratio"]), 1 / float(r[f"{k}_ratio"])) for r in rows) for k in ("cold", "warm")}
     print(f"worst ratio (either way): cold {worst['cold']:.2f}, calibrated {worst['warm']:.2f}; goal 2", flush=True)
     fields = list(rows[0])
-    tables.write(tables.path_for("_".join(["estimate"] + args)), fields, rows, "The panel's time estimate against the bake",
+    tables.write(tables.path_for("_".join(["estimate"] + args)), fields, rows,
+                 "The panel's time estimate against the bake",
                  [("scene", "scene", None), ("preset", "preset", None), ("actual", "bake", tables.seconds),
                   ("points", "vertices", tables.count), ("cold_points_ratio", "cold vertices / bake", None),
                   ("rays", "rays", tables.mega), ("cold_rays_ratio", "cold rays / bake", None),
