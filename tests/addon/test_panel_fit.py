@@ -22,7 +22,6 @@ Numbers at the default UI scale (U.dpi 72, widget unit 20 px), from Blender 3.4'
 - the UI font is font 0 at 11 points (UI_DEFAULT_TEXT_POINTS) at 72 dpi.
 Rows split their width evenly, less 8 px (style->buttonspacex) between items unless aligned.
 """
-import json
 import os
 from types import SimpleNamespace
 
