@@ -1,22 +1,35 @@
-"""The panel's rough estimate of what the chosen quality costs on the scene, from object bounding boxes."""
+"""The panel's estimate of what a quality costs on the scene: vertices and rays from the object bounds,
+seconds from this machine's rates (preferences.machine), learnt from its last bakes.
+
+    points  ~ POINTS_PER_PATCH_AREA * surface area / patch_size^2
+    rays    ~ points * (samples_indirect + SAMPLES_FLOOR) * ln(1 / threshold) * RAYS_FACTOR: reflected
+              shots, which go on until the threshold, trace most rays (dim shots sample distant
+              receivers less, but not below a floor: Solver::Impl::far_samples)
+    seconds ~ seconds_per_point * points + seconds_per_ray * rays
+
+A bake of the scene corrects the first two for it (its points and rays over what the bounds gave:
+props.estimate_points_scale, props.estimate_rays_scale) and the rates (its time over what they give:
+props.estimate_seconds_scale), and every bake on the machine tells it the rates. What the estimate
+is worth against actual bakes: bench/estimate.py.
+"""
+import functools
 import math
 
 import numpy as np
 
 from . import export as exporter
+from . import preferences
+from .settings import preset_values
 
-# A rough model, fitted to bakes of the sample scenes at draft, default and high on 2 cores: its
-# points, rays and seconds land within 0.66-2.2x of theirs (over for the Cornell box, under for the
-# animated room).
-#   points  ~ POINTS_PER_PATCH_AREA * surface area / patch_size^2
-#   rays    ~ points * samples_indirect * ln(1 / threshold) * RAYS_FACTOR: reflected shots, which go on
-#             until the threshold, trace most rays (dim shots sample distant receivers less,
-#             Solver::Impl::far_samples)
-#   seconds ~ SECONDS_PER_POINT * points + SECONDS_PER_RAY * rays
+# Fitted to the sample scenes' bakes at draft, default and high: per point and e-fold of the threshold
+# they trace 29-112 rays (a scene's own figure holds within 15% across presets) per indirect sample
+# and 1.5 more; RAYS_FACTOR is their geometric middle, for a scene not yet baked.
 POINTS_PER_PATCH_AREA = 3.0
-RAYS_FACTOR = 80.0            # the bakes trace 50-90 rays a point per indirect sample and e-fold
-SECONDS_PER_POINT = 5.0e-5
-SECONDS_PER_RAY = 4.3e-8      # they trace 19-32 M rays/s
+SAMPLES_FLOOR = 1.5
+RAYS_FACTOR = 70.0
+KEEP = 9                      # bakes the rates are the median of: one slow bake moves them little
+SPREAD = 1.4                  # the range shown: estimate / SPREAD .. estimate * SPREAD, when the scene
+UNSEEN = 1.5                  # has been baked on this machine; wider by UNSEEN when either is new
 
 
 def scene_measure(scene):
@@ -45,12 +58,78 @@ def scene_measure(scene):
     return area, diag, lights
 
 
-def cost(props, scene):
-    """(points, rays, seconds): a rough estimate of what the chosen quality costs on this scene."""
-    area, diag, lights = scene_measure(scene)
-    if diag <= 0 or props.patch_size_relative <= 0:
-        return 0, 0, 0.0
-    patch = props.patch_size_relative * diag
+def model_counts(scene, patch_size_relative, samples_indirect, threshold):
+    """(points, rays) the bounds give for these knobs, before the scene's own correction."""
+    area, diag, _lights = scene_measure(scene)
+    if diag <= 0 or patch_size_relative <= 0:
+        return 0.0, 0.0
+    patch = patch_size_relative * diag
     points = POINTS_PER_PATCH_AREA * area / (patch * patch)
-    rays = points * props.samples_indirect * math.log(1.0 / min(props.threshold, 0.5)) * RAYS_FACTOR
-    return int(points), int(rays), SECONDS_PER_POINT * points + SECONDS_PER_RAY * rays
+    return points, points * (samples_indirect + SAMPLES_FLOOR) * math.log(1.0 / min(threshold, 0.5)) * RAYS_FACTOR
+
+
+def _ratios(rates):
+    return [float(r) for r in rates.ratios.split()]
+
+
+def _seconds(props, points, rays):
+    """(low, high) seconds for these counts on this machine. A scene baked here before also brings
+    its own time against the rates (its rays may cost more than most, the machine may be busier now):
+    half-way between the two, in ratio, so that a one-off slow bake counts half."""
+    rates = preferences.machine()
+    mid = rates.seconds_per_point * points + rates.seconds_per_ray * rays
+    if props.estimate_seconds_scale > 0 and rates.seconds_per_ray > 0:
+        mid *= math.sqrt(props.estimate_seconds_scale * preferences.SECONDS_PER_RAY / rates.seconds_per_ray)
+    spread = SPREAD * (1.0 if props.estimate_points_scale > 0 else UNSEEN) \
+        * (1.0 if len(_ratios(rates)) >= 3 else UNSEEN)
+    return mid / spread, mid * spread
+
+
+def _corrected(props, points, rays):
+    if props.estimate_points_scale > 0:
+        return points * props.estimate_points_scale, rays * props.estimate_rays_scale
+    return points, rays
+
+
+def cost(props, scene):
+    """(points, rays, (low, high) seconds): what the knobs of `props` cost on this scene."""
+    points, rays = _corrected(props, *model_counts(scene, props.patch_size_relative, props.samples_indirect,
+                                                    props.threshold))
+    return int(points), int(rays), _seconds(props, points, rays)
+
+
+@functools.lru_cache(maxsize=None)
+def _preset(name):
+    return preset_values(name)
+
+
+def preset_times(scene):
+    """{preset identifier: (low, high) seconds} on this scene, for the Quality menu."""
+    props = scene.radiosity
+    out = {}
+    for item in props.bl_rna.properties["preset"].enum_items:
+        k = _preset(item.identifier)
+        points, rays = _corrected(props, *model_counts(scene, k["patch_size_relative"], k["samples_indirect"],
+                                                       k["threshold"]))
+        out[item.identifier] = _seconds(props, points, rays)
+    return out
+
+
+def record(scene, stats):
+    """Learn from a finished single-frame bake (bake_stats `stats`, made with scene.radiosity's knobs):
+    the scene's counts against the bounds' model, the machine's rates against its time."""
+    props = scene.radiosity
+    points, rays, secs = float(stats["points"]), float(stats["rays"]), float(stats["seconds"])
+    model_points, model_rays = model_counts(scene, props.patch_size_relative, props.samples_indirect, props.threshold)
+    if min(points, rays, secs, model_points, model_rays) <= 0:
+        return
+    props.estimate_points_scale = points / model_points
+    props.estimate_rays_scale = rays / model_rays
+    rates = preferences.machine()
+    base = preferences.SECONDS_PER_POINT * points + preferences.SECONDS_PER_RAY * rays
+    props.estimate_seconds_scale = secs / base
+    ratios = (_ratios(rates) + [secs / base])[-KEEP:]
+    k = float(np.median(ratios))
+    rates.seconds_per_point = preferences.SECONDS_PER_POINT * k
+    rates.seconds_per_ray = preferences.SECONDS_PER_RAY * k
+    rates.ratios = " ".join(f"{r:.4g}" for r in ratios)

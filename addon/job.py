@@ -97,10 +97,10 @@ class BakeJob:
 
     @property
     def effects(self):
-        """effects.describe of the scene exported, worked out when first read (a bake's report), not for every
+        """effects.items of the scene exported, worked out when first read (a bake's report), not for every
         live edit: it sorts every mesh's edges."""
         if self._effects is None:
-            self._effects = effects.describe(self.exported)
+            self._effects = effects.items(self.exported)
         return self._effects
 
     @property
@@ -231,7 +231,7 @@ class BakeJob:
         settings (Solver.corner_radiance)."""
         out = {}
         for m in self.export.visible_meshes:
-            if m.object_type != 'MESH':   # no colour attribute to hold them: in effects.describe
+            if m.object_type != 'MESH':   # no colour attribute to hold them: in effects.items
                 continue
             if not m.matches_original or m.name != m.object_name:
                 if m.name == m.object_name:

@@ -10,11 +10,12 @@ bake_animation solves the first frame in full and every later frame incrementall
 Solver (job.BakeJob(base=previous job)): only what changed since the previous frame is re-shot.
 The handlers (frame change, live update) live in live_update.py and stay quiet while a bake runs.
 """
+import json
 import threading
 
 import bpy
 
-from . import bake_stats, display, farm, lightmap, live_update, writeback
+from . import bake_stats, display, effects, estimate, farm, lightmap, live_update, writeback
 from .lightmap_sequence import SequenceBake
 from .errors import BakeError
 from .job import BakeJob
@@ -118,6 +119,8 @@ def finish(context, jobs, results, animation, report, sequence=None):
         stats["warnings"] += sequence.commit()
     written = conclude(context, results, stats, animation, report)
     live_update.live_jobs[context.scene.name] = jobs[-1]
+    if not animation and stats["converged"]:
+        estimate.record(context.scene, stats)
     return written
 
 
@@ -157,17 +160,21 @@ def conclude(context, results, stats, animation, report):
     props.last_shots = stats["shots"]
     props.last_rays = stats["rays"]
     props.last_relaxation = stats["relaxation"]
-    props.last_effects = stats["effects"]
+    props.last_effects = effects.sentence(stats["effects"])
+    props.last_effect_items = json.dumps(stats["effects"])
+    props.last_converged = stats["converged"]
     props.last_frames = stats["frames"]
     props.has_results = True
     if not stats["converged"]:
-        warnings.append("the solve stopped before reaching the threshold (see Residual)")
+        warnings.append("the bake stopped before reaching Light Left (see Statistics)")
     shown = _report_all(report, warnings)
     props.last_warnings = "\n".join(shown)
-    report({'INFO'}, f"Radiosity: baked {len(written)} object(s)"
-           + (f", {stats['frames']} frames ({stats['incremental']} incremental)" if animation else "")
-           + f" in {props.last_seconds:.2f} s; simulated: {props.last_effects}")
+    report({'INFO'}, f"Radiosity: simulated: {props.last_effects}")
     display.after_bake(scene)
+    # the last report is the one the status bar shows: what was baked, and where to see it
+    n = stats["frames"] if animation else len(written)
+    report({'INFO'}, f"Radiosity: baked {n} {'frame' if animation else 'object'}{'s' if n != 1 else ''} in {props.last_seconds:.1f} s; "
+           + ("Show Bake shows it" if props.show_bake else "turn on Show Bake to see it"))
     return written
 
 

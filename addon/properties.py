@@ -13,77 +13,79 @@ def _fill(self, _context):
 
 
 class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
+    # Names are short enough for a default-width sidebar (tests/addon/test_panel_fit.py); what each
+    # knob means to the engine is in docs/settings.md.
     preset: EnumProperty(
         name="Quality",
-        items=[('DRAFT', "Draft", "Fast preview: coarse patches, few samples"),
-               ('DEFAULT', "Default", "Balanced quality and time"),
-               ('HIGH', "High", "Fine patches, many samples"),
-               ('REFERENCE', "Reference", "Very slow; for comparisons")],
+        items=[('DRAFT', "Draft", "A quick preview while you set up lights and materials"),
+               ('DEFAULT', "Default", "Good everyday quality in seconds on small scenes"),
+               ('HIGH', "High", "Closest to Cycles: for the final bake"),
+               ('REFERENCE', "Reference", "Very slow: for comparisons, not for use")],
         default='DEFAULT', update=_fill,
-        description="Quality preset; choosing one fills the settings below")
+        description="How fine and how long the bake is; choosing one fills the Settings")
     samples_direct: IntProperty(
-        name="Direct Samples", default=64, min=1, soft_max=4096,
-        description="Visibility rays per patch for light from lamps and emitters")
+        name="Light Samples", default=64, min=1, soft_max=4096,
+        description="Rays each patch sends toward every lamp and glowing surface. More: smoother soft "
+                    "shadows, longer bakes")
     samples_indirect: IntProperty(
-        name="Indirect Samples", default=16, min=1, soft_max=1024,
-        description="Visibility rays per patch for each shot of reflected light")
+        name="Bounce Samples", default=16, min=1, soft_max=1024,
+        description="Rays each patch sends for light bounced off other surfaces. More: less blotchy "
+                    "bounce light, longer bakes")
     patch_size_relative: FloatProperty(
         name="Patch Size", default=1 / 32, min=1e-4, max=1.0, precision=4, step=0.1,
-        description="Patch size as a fraction of the scene's diagonal (smaller = finer shadows)")
+        description="Size of the patches the light is worked out on, as a share of the scene's size. "
+                    "Smaller: sharper shadows and more detail, longer bakes")
     threshold: FloatProperty(
-        name="Threshold", default=1e-3, min=1e-8, max=1.0, precision=5, step=0.01,
-        description="Stop when the unshot light falls below this fraction of the emitted light")
+        name="Light Left", default=1e-3, min=1e-8, max=1.0, precision=5, step=0.01,
+        description="The bake stops when this share of the light is still to bounce. Smaller: darker "
+                    "corners come out right, longer bakes")
     auto_relaxation: BoolProperty(
-        name="Automatic Relaxation", default=True,
-        description="Over-relax reflected light shots by what the first shots see come back: more "
-                    "in a closed bright room, none in an open scene (faster than any one fixed value)")
+        name="Auto Speed-Up", default=True,
+        description="Pick the speed-up from how much light the first bounces bring back: more in a "
+                    "closed bright room, none in an open scene")
     relaxation: FloatProperty(
-        name="Relaxation", default=1.3, min=1.0, max=1.95, precision=2,
-        description="Over-relaxation of reflected light shots when not automatic (1 = plain "
-                    "progressive refinement)")
+        name="Speed-Up", default=1.3, min=1.0, max=1.95, precision=2,
+        description="Bounce a little more light each time than is there, so that bright rooms finish "
+                    "sooner (1: none). The result is the same")
     exact_near_direct: BoolProperty(
         name="Exact Contact Light", default=True,
-        description="Each corner evaluates the direct light of the surfaces right beside it where it "
-                    "lands instead of interpolating it: right at the foot of an object, where its "
-                    "shadow edge starts (off at Draft: it costs time on every update)")
+        description="Work out the direct light exactly where objects touch (a box's foot, where its "
+                    "shadow starts) instead of blending it across a patch. Off at Draft: it costs time "
+                    "on every live update")
     exact_near_reflected: BoolProperty(
-        name="Exact Reflected Contact Light", default=False,
-        description="With Exact Contact Light, the reflected light of those surfaces too: a box's foot on "
-                    "a floor and a room's corners come closer to Cycles, for about 30 ms a corner beside "
-                    "surfaces whose light varies (on at High and Reference; worked out anew after every update)")
+        name="Exact Contact Bounce", default=False,
+        description="With Exact Contact Light, the bounced light too: feet of objects and room corners "
+                    "come closer to Cycles, for up to a bake's time again in busy scenes (on at High "
+                    "and Reference)")
     db_cache_mb: FloatProperty(
-        name="dB Cache (MB)", default=256.0, min=0.0, soft_max=4096.0, precision=0,
-        description="Memory an update may keep of what the scene around a moving object does to the "
-                    "rays its moves change, so that moving it back or on traces them no more; past "
-                    "it they are traced again (same result). 0: no cache. Presets leave it as it is")
+        name="Move Memory (MB)", default=256.0, min=0.0, soft_max=4096.0, precision=0,
+        description="Memory Live Update keeps of what a moving object changed, so that moving it back "
+                    "or on is quicker; the result is the same. 0: none. Presets leave it as it is")
     max_patches: IntProperty(
         name="Patch Limit", default=2000000, min=1000, soft_max=20000000,
-        description="A scene that would refine to more patches is refused with a message (naming the "
-                    "object that makes the most) before anything is refined: a solve holds about "
-                    "2.3 KB a patch. Presets leave it as it is")
+        description="A scene that would need more patches is refused before baking, with the object "
+                    "that needs the most named (about 2.3 KB of memory a patch). Presets leave it as it is")
     live_update: BoolProperty(
         name="Live Update", default=False,
-        description="Update the lighting on frame change and while editing: only what changed is "
-                    "re-shot on the engine's solver kept in memory (frames baked by Bake Animation "
-                    "show their baked lighting)")
+        description="Update the lighting as you edit and when the frame changes: only what changed is "
+                    "worked out again (frames baked by Bake Animation show their own light)")
     store_frames: BoolProperty(
         name="Keep Frames in File", default=True,
-        description="Save the frames of Bake Animation in the .blend, so that the animation renders "
-                    "with its lighting after reopening (e.g. blender -b file.blend -a)")
+        description="Save the frames Bake Animation bakes in the .blend, so that the animation renders "
+                    "with its light after reopening the file")
     farm_scheduler: StringProperty(
-        name="Farm Scheduler", default="",
-        description="Address of a Dask scheduler (tcp://host:8786) whose workers bake Bake Animation's "
-                    "frames in chunks, on the saved .blend, into a cache folder beside it (docs/farm.md). "
-                    "Empty: this machine alone")
+        name="Farm", default="",
+        description="Address of a render farm's Dask scheduler (tcp://host:8786): its machines bake "
+                    "Bake Animation's frames from the saved .blend (docs/farm.md). Empty: this computer "
+                    "alone")
     lightmaps: BoolProperty(
         name="Lightmaps", default=False,
-        description="Bake also writes an image '<object>_Radiosity' per lit mesh, in its UV map "
-                    "'RadiosityUV' (made with Lightmap Pack if missing): each texel the light at its own "
-                    "surface point, with shadows finer than the patches (packed into the .blend)")
+        description="Bake also an image '<object>_Radiosity' per lit mesh, in the UV map 'RadiosityUV' "
+                    "(made if missing): shadows finer than the patches, packed into the .blend")
     texel_density: FloatProperty(
-        name="Texel Density", default=32.0, min=0.01, soft_max=1024.0, precision=1,
-        description="Texels per metre of a new lightmap's side, across the square root of the mesh's "
-                    "area (an existing image is written at its own size)")
+        name="Texels per Metre", default=32.0, min=0.01, soft_max=1024.0, precision=1,
+        description="Sharpness of a new lightmap: texels per metre of surface (an existing image "
+                    "keeps its size)")
     lightmap_min_size: IntProperty(
         name="Minimum Size", default=64, min=4, max=16384,
         description="Smallest side of a new lightmap, in texels")
@@ -93,21 +95,28 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
 
     # results of the last bake (written by the operators)
     last_seconds: FloatProperty(name="Time", default=0.0, precision=2, unit='TIME_ABSOLUTE')
-    last_residual: FloatProperty(name="Residual", default=0.0, precision=6)
+    last_residual: FloatProperty(name="Light Left", default=0.0, precision=6)
     last_patches: IntProperty(name="Patches", default=0)
     last_points: IntProperty(name="Vertices", default=0)
     last_rays: FloatProperty(name="Rays", default=0.0, precision=0)   # may exceed 2^31
     last_shots: IntProperty(name="Shots", default=0)
-    last_relaxation: FloatProperty(name="Relaxation", default=0.0, precision=2)  # what the solve chose
-    last_effects: StringProperty(name="Effects", default="")
+    last_relaxation: FloatProperty(name="Speed-Up", default=0.0, precision=2)  # what the solve chose
+    last_effects: StringProperty(name="Effects", default="")          # effects.sentence, as reported
+    last_effect_items: StringProperty(name="Effect List", default="[]")  # effects.items as JSON
+    last_converged: BoolProperty(name="Converged", default=True)
     last_frames: IntProperty(name="Frames", default=0)
     last_warnings: StringProperty(name="Warnings", default="")
     has_results: BoolProperty(default=False)
+    # this scene's points and rays over what its bounds gave, and its time over what the starting
+    # rates give for them, at its last bake (estimate.record); 0: not baked here
+    estimate_points_scale: FloatProperty(default=0.0)
+    estimate_rays_scale: FloatProperty(default=0.0)
+    estimate_seconds_scale: FloatProperty(default=0.0)
 
     show_bake: BoolProperty(
         name="Show Bake", default=False, update=display.on_toggle,
         description="Show the baked light in the viewport and in renders: the lit meshes' materials "
-                    "emit it in place of their surface (turned off, they are as they were)")
+                    "glow with it in place of their surface (turned off, they are as they were)")
     display_exposure: FloatProperty(
         name="Exposure", default=0.0, soft_min=-10.0, soft_max=10.0, precision=2, update=display.on_exposure,
         description="Brightness of the shown bake, in stops")

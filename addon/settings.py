@@ -8,7 +8,7 @@ KNOBS = ("samples_direct", "samples_indirect", "patch_size_relative", "threshold
 
 def preset_values(name):
     """Knob values of a preset: the engine's Settings are their one source (its relaxation 0 is
-    the Automatic Relaxation box)."""
+    the Auto Speed-Up box)."""
     s = load_engine().Settings.preset(name.lower())
     values = {k: getattr(s, k) for k in KNOBS if k != "relaxation"}
     values["auto_relaxation"] = s.relaxation == 0

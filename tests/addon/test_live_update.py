@@ -298,7 +298,7 @@ def test_playback_shoots_on_a_budget_and_settles_when_it_stops(addon, monkeypatc
     info = live.last_sync[scene.name]
     assert (info["frame"], info["mode"], info["budgeted"]) == (9, "incremental", False)
     assert info["converged"] and info["residual"] <= threshold and info["shots"] > 0
-    assert info["settled"] and addon.panels.live_status(info).endswith(", settled")
+    assert info["settled"] and addon.panels.live_status(info)[-1] == "Settled"
     settled = read(scene)
     check_finite(settled)
     fresh = fresh_bake(scene)
@@ -606,7 +606,7 @@ def test_an_update_that_solves_afresh_says_why(addon):
     bpy.context.view_layer.update()
     info = live.last_sync[scene.name]
     assert info["mode"] == "incremental" and "of the light" in info["restart"], info
-    assert "solved afresh: " + info["restart"] in addon.panels.live_status(info)
+    assert "Solved afresh: " + info["restart"] in " ".join(addon.panels.live_status(info))
     assert relative_rms(stacked(read(scene)), stacked(fresh_bake(scene))) < BOUND
 
 

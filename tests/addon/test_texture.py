@@ -182,7 +182,7 @@ def test_colour_attribute_colours_reach_the_corners_as_cycles_bakes_them(addon, 
         me.color_attributes.render_color_index = me.color_attributes.find("Paint")
     tree.links.new(source.outputs["Color"], tree.nodes["Diffuse BSDF"].inputs["Color"])
     sx = corners_as_cycles_bakes_them(addon, ob, f"{kind} on {domain}, {node}")
-    assert "colour attributes" in addon.effects.describe(sx)
+    assert "colour attributes" in addon.effects.sentence(addon.effects.items(sx))
 
 
 def test_a_colour_attribute_missing_or_the_bakes_own_output_is_reported(addon):
