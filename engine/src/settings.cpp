@@ -1,5 +1,7 @@
 #include "radiosity/settings.h"
 
+#include "refine.h"
+
 #include <cmath>
 #include <stdexcept>
 
@@ -12,6 +14,8 @@ void Settings::validate() const {
   check(samples_direct >= 1, "samples_direct must be at least 1");
   check(samples_indirect >= 1, "samples_indirect must be at least 1");
   check(patch_size_relative > 0 && patch_size_relative <= 1, "patch_size_relative must lie in (0, 1]");
+  check(light_refinement >= 0 && light_refinement <= kMaxCellDepth, "light_refinement must lie in [0, 8]");
+  check(light_contrast > 0 && light_contrast <= 1, "light_contrast must lie in (0, 1]");
   check(shooter_size_relative > 0 && shooter_size_relative <= 1, "shooter_size_relative must lie in (0, 1]");
   check(near_factor > 0 && std::isfinite(near_factor), "near_factor must be positive");
   check(threshold > 0 && threshold <= 1, "threshold must lie in (0, 1]");
