@@ -38,9 +38,9 @@ import tables  # noqa: E402
 SCENES = {"cornell_box": None, "subsurf_room": None, "animated_room": 1}
 # (label, patch_size_relative, light_refinement, light_contrast)
 CONFIGS = [("uniform", 1 / 16, 0, 0.0), ("uniform", 1 / 32, 0, 0.0), ("uniform", 1 / 64, 0, 0.0),
-           ("light", 1 / 16, 1, 0.1), ("light", 1 / 16, 2, 0.1), ("light", 1 / 16, 2, 0.25),
+           ("light", 1 / 16, 1, 0.25), ("light", 1 / 16, 2, 0.1), ("light", 1 / 16, 2, 0.25),
            ("light", 1 / 32, 1, 0.1), ("light", 1 / 32, 1, 0.25), ("light", 1 / 32, 2, 0.25)]
-QUICK = [CONFIGS[1], CONFIGS[2], CONFIGS[4]]
+QUICK = [CONFIGS[1], CONFIGS[3], CONFIGS[8]]
 FIELDS = ["scene", "refinement", "start", "levels", "contrast", "patches", "uniform_patches", "seconds",
           "dense_rms", "grid_rms", "load1"]
 COLUMNS = [("scene", "scene", None), ("refinement", "refinement", None), ("start", "start size", None),

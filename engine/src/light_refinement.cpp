@@ -2,6 +2,8 @@
 // error falls where it is seen and no patches are spent where the light is flat.
 #include "solver_impl.h"
 
+#include "radiosity/form_factor.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -42,7 +44,13 @@ std::vector<char> Solver::Impl::light_marks(double contrast) const {
   parallel_for(0, int(mesh.patches.size()), 16, [&](int p) {
     if (!takes_part(p)) return;
     const Patch& patch = mesh.patches[p];
-    std::array<dvec3, 2> centre = light_at(sources, patch.centre, patch.normal);
+    // A twisted patch's centre lies off the two triangles Embree traces for it: each side's light
+    // is taken from in front of them on that side.
+    dvec3 corner[4];
+    for (int c = 0; c < 4; ++c) corner[c] = mesh.vertices[patch.vertex[c]];
+    double lift = bilinear_lift(bilinear_twist(corner, patch.normal), 0.5, 0.5);
+    std::array<dvec3, 2> centre = light_at(sources, patch.centre + lift * patch.normal, patch.normal);
+    if (lift > 0) centre[1] = light_at(sources, patch.centre - lift * patch.normal, patch.normal)[1];
     for (int side = 0; side < 2; ++side) {
       double lo = INFINITY, hi = -INFINITY, direct_mean = 0.0;
       for (int c = 0; c < 4; ++c) {
