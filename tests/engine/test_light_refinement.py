@@ -209,3 +209,19 @@ def test_a_move_and_its_undo_on_light_refined_patches_match_a_fresh_solve():
     assert np.isfinite(got).all()
     # DESIGN.md section 5: an updated frame within 0.5% RMS of a fresh solve.
     assert np.sqrt(np.mean((got - expected) ** 2)) / np.mean(expected) < 0.005
+
+
+def test_points_on_light_split_patches_read_the_exact_light():
+    """Solver.surface_radiance (lightmaps) reads points among split patches: each its own sunlight or
+    shadow (the plate is black: no reflected light to interpolate), across T-junctions too."""
+    scene, plane = shadowed_plane()
+    solver = engine.Solver(scene, settings(LEVELS))
+    solver.solve()
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(-PLANE_HALF, PLANE_HALF, (400, 2))
+    x0, x1, y0, y1 = SHADOW
+    off_edge = np.minimum(np.abs(xy[:, :1] - [x0, x1]).min(1), np.abs(xy[:, 1:] - [y0, y1]).min(1)) > 1e-3
+    xy = xy[off_edge]
+    points = np.concatenate([xy, np.zeros((len(xy), 1))], 1)
+    got = np.asarray(solver.surface_radiance(plane, np.zeros(len(xy), np.int32), points)).reshape(-1, 3)
+    assert np.abs(got.mean(1) - analytic(xy)).max() < 0.01 * lit_value()
