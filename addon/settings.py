@@ -18,7 +18,9 @@ def preset_values(name):
 
 
 def engine_settings(props, engine=None):
-    """engine.Settings from scene.radiosity: the preset's values, overridden by the knobs."""
+    """engine.Settings from scene.radiosity: the preset's values, overridden by the knobs. The
+    preset's refinement driven by the light (light_refinement, light_contrast) has no knob: it
+    comes as the preset sets it."""
     engine = engine or load_engine()
     s = engine.Settings.preset(props.preset.lower())
     s.samples_direct = int(props.samples_direct)
@@ -36,4 +38,5 @@ def engine_settings(props, engine=None):
 def settings_key(settings):
     """What must match for an engine Solver to be reused (the dB cache's cap and the patch limit are
     fixed in it too)."""
-    return tuple(getattr(settings, k) for k in KNOBS + ("db_cache_mb", "max_patches"))
+    return tuple(getattr(settings, k) for k in KNOBS + ("light_refinement", "light_contrast", "db_cache_mb",
+                                                         "max_patches"))

@@ -74,6 +74,7 @@ py::dict stats_dict(const SolveStats& s) {
   d["shots"] = s.shots;
   d["rays"] = s.rays;
   d["patches"] = s.patches;
+  d["uniform_patches"] = s.uniform_patches;
   d["points"] = s.points;
   d["shooters"] = s.shooters;
   d["threads"] = s.threads;
@@ -188,6 +189,8 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def_readwrite("samples_direct", &Settings::samples_direct)
       .def_readwrite("samples_indirect", &Settings::samples_indirect)
       .def_readwrite("patch_size_relative", &Settings::patch_size_relative)
+      .def_readwrite("light_refinement", &Settings::light_refinement)
+      .def_readwrite("light_contrast", &Settings::light_contrast)
       .def_readwrite("shooter_size_relative", &Settings::shooter_size_relative)
       .def_readwrite("near_factor", &Settings::near_factor)
       .def_readwrite("threshold", &Settings::threshold)

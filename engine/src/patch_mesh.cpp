@@ -327,7 +327,8 @@ void widen_to(const PatchMesh& pm, const ObjectPatches& obj, dvec3& lo, dvec3& h
   for (int v = obj.vertex_begin; v < obj.vertex_end; ++v) lo = glm::min(lo, pm.vertices[v]), hi = glm::max(hi, pm.vertices[v]);
 }
 
-PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
+PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings,
+                           const std::vector<std::vector<QuadCell>>& cells) {
   PatchMesh pm;
   dvec3 lo, hi;
   scene_bounds(scene, lo, hi);
@@ -337,7 +338,8 @@ PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings) {
     pm.diagonal = d > 0 ? d : 1.0;
   }
   check_patch_budget(pm, scene.meshes, settings);
-  for (const MeshDesc& mesh : scene.meshes) add_object(pm, mesh, scene.materials, settings);
+  for (size_t m = 0; m < scene.meshes.size(); ++m)
+    add_object(pm, scene.meshes[m], scene.materials, settings, cells.empty() ? std::vector<QuadCell>() : cells[m]);
   return pm;
 }
 
@@ -345,6 +347,12 @@ namespace {
 
 std::vector<int> face_levels_in(const PatchMesh& pm, const MeshDesc& mesh, const Settings& settings) {
   return face_levels(mesh, mesh.patch_size > 0 ? mesh.patch_size : settings.patch_size_relative * pm.diagonal);
+}
+
+// The object's quads: `mesh` refined as the object was, then split as the light split it.
+RefinedMesh refine_patches(const MeshDesc& mesh, const ObjectPatches& obj) {
+  RefinedMesh refined = refine_mesh(mesh, obj.face_levels);
+  return obj.cells.empty() ? refined : split_cells(refined, obj.cells);
 }
 
 }  // namespace
@@ -372,10 +380,11 @@ void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes
 }
 
 void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
-                const Settings& settings) {
+                const Settings& settings, std::vector<QuadCell> cells) {
   ObjectPatches obj;
   obj.face_levels = face_levels_in(pm, mesh, settings);
-  RefinedMesh refined = refine_mesh(mesh, obj.face_levels);
+  obj.cells = std::move(cells);
+  RefinedMesh refined = refine_patches(mesh, obj);
   obj.patch_begin = int(pm.patches.size());
   obj.vertex_begin = int(pm.vertices.size());
   add_patches(pm, mesh, refined, materials, int(pm.objects.size()), obj);
@@ -406,7 +415,7 @@ namespace radiosity {
 
 PlacedObject refine_object(const PatchMesh& pm, int object, const MeshDesc& mesh) {
   const ObjectPatches& obj = pm.objects.at(object);
-  RefinedMesh refined = refine_mesh(mesh, obj.face_levels);
+  RefinedMesh refined = refine_patches(mesh, obj);
   bool mirrored = glm::determinant(glm::dmat3(mesh.transform)) < 0;
   if (int(refined.positions.size()) != obj.vertex_end - obj.vertex_begin ||
       int(refined.quads.size()) != obj.patch_end - obj.patch_begin || mirrored != obj.mirrored)

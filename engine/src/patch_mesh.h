@@ -48,6 +48,7 @@ struct ObjectPatches {
   int point_begin = 0, point_end = 0;
   int vertex_begin = 0, vertex_end = 0;
   std::vector<int> face_levels;  // what it was refined with (face_levels): a moved object keeps its patches
+  std::vector<QuadCell> cells;   // and the light's splits of those quads (split_cells); empty: none
   int degenerate = 0;     // zero-area patches
   // A closed surface (every edge of the input mesh shared by two faces, wound alike): the side of
   // its patches that faces its inside (0 front, 1 back), else -1; and a sphere round it. Nothing
@@ -89,7 +90,9 @@ struct PatchMesh {
   }
 };
 
-PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings);
+// `cells`: per mesh, the light's splits of its quads (ObjectPatches::cells); empty: none anywhere.
+PatchMesh build_patch_mesh(const SceneDesc& scene, const Settings& settings,
+                           const std::vector<std::vector<QuadCell>>& cells = {});
 // Widens [lo, hi] to the object's vertices.
 void widen_to(const PatchMesh& pm, const ObjectPatches& obj, dvec3& lo, dvec3& hi);
 // Refuses (std::invalid_argument, naming the largest) `meshes` that would take `pm` past
@@ -97,7 +100,7 @@ void widen_to(const PatchMesh& pm, const ObjectPatches& obj, dvec3& lo, dvec3& h
 void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes, const Settings& settings);
 // Appends one more object (the next index), in the frame and at the sizes `pm` was built with.
 void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
-                const Settings& settings);
+                const Settings& settings, std::vector<QuadCell> cells = {});
 
 // A patch's area and unit normal from its corners (half the cross product of its diagonals: exact
 // for a planar quad); both zero where it is degenerate.

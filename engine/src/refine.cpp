@@ -81,6 +81,34 @@ std::vector<dvec3> vertex_normals(const MeshDesc& mesh) {
   return sum;
 }
 
+// Where a point lies along a segment: `at` parts in kWhole of the way.
+constexpr long long kWhole = 1LL << kMaxLevel;
+
+// The points made along the segments between a mesh's vertices, shared by the faces on both sides of
+// each: found by the segment and where on it they lie.
+class SegmentPoints {
+ public:
+  // The vertex `at` along the segment from vertex a to b, made the first time by `make(a, b, t)`, t
+  // along a to b (which may come swapped). A segment from a vertex to itself (a triangle's repeated
+  // corner) is that vertex.
+  template <class Make>
+  int at(int a, int b, long long at, Make&& make) {
+    if (a == b) return a;
+    if (a > b) std::swap(a, b), at = kWhole - at;
+    if (at == 0) return a;
+    if (at == kWhole) return b;
+    auto [it, fresh] = points_.try_emplace({(long long)a << 32 | b, at}, -1);
+    if (fresh) it->second = make(a, b, double(at) / double(kWhole));
+    return it->second;
+  }
+
+ private:
+  struct Hash {
+    size_t operator()(const std::pair<long long, long long>& k) const { return std::hash<long long>()(k.first * 1031 + k.second); }
+  };
+  std::unordered_map<std::pair<long long, long long>, int, Hash> points_;  // ((a, b), at), a < b
+};
+
 // Faces taken as they are: no OpenSubdiv needed.
 RefinedMesh copy_faces(const MeshDesc& mesh) {
   RefinedMesh out;
@@ -237,8 +265,6 @@ RefinedMesh refine_uniformly(const MeshDesc& mesh, int level) {
 // (T-junctions). The edge is straight, so rays find no gap along it; a receiving point there simply
 // is not a corner of the coarser patch, which it sees edge-on or along its own junction.
 RefinedMesh split_faces(const MeshDesc& mesh, const std::vector<int>& levels) {
-  // Where a point lies along a segment: `at` parts in kWhole of the way.
-  constexpr long long kWhole = 1LL << kMaxLevel;
   RefinedMesh out;
   out.positions = mesh.positions;
   std::vector<dvec3> normals;  // unnormalised, as OpenSubdiv's averages are
@@ -250,23 +276,12 @@ RefinedMesh split_faces(const MeshDesc& mesh, const std::vector<int>& levels) {
     if (!normals.empty()) normals.push_back(n);
     return int(out.positions.size()) - 1;
   };
-  // The point `at` along the segment from vertex a to b (refined indices). Points on edges are shared
-  // by the faces on both sides, found by the segment and where on it they lie.
-  struct EdgeHash {
-    size_t operator()(const std::pair<long long, long long>& k) const { return std::hash<long long>()(k.first * 1031 + k.second); }
-  };
-  std::unordered_map<std::pair<long long, long long>, int, EdgeHash> on_edge;  // ((a, b), at), a < b
+  SegmentPoints on_edge;
   auto point_on = [&](int a, int b, long long at) {
-    if (a > b) std::swap(a, b), at = kWhole - at;
-    if (at == 0) return a;
-    if (at == kWhole) return b;
-    auto [it, fresh] = on_edge.try_emplace({(long long)a << 32 | b, at}, -1);
-    if (fresh) {
-      double t = double(at) / double(kWhole);
-      it->second = add_vertex((1 - t) * out.positions[a] + t * out.positions[b],
-                              normals.empty() ? dvec3(0.0) : (1 - t) * normals[a] + t * normals[b]);
-    }
-    return it->second;
+    return on_edge.at(a, b, at, [&](int from, int to, double t) {
+      return add_vertex((1 - t) * out.positions[from] + t * out.positions[to],
+                        normals.empty() ? dvec3(0.0) : (1 - t) * normals[from] + t * normals[to]);
+    });
   };
   // A quad of the face's first step: its corners, its colours there, and its sides as parts of the
   // segments they lie on (a side from corner c to c + 1 runs `from` to `to` along a to b).
@@ -408,6 +423,78 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, const std::vector<int>& levels) {
   if (levels.empty() || std::all_of(levels.begin(), levels.end(), [&](int l) { return l == levels[0]; }))
     return refine_uniformly(mesh, levels.empty() ? 0 : levels[0]);
   return split_faces(mesh, levels);
+}
+
+std::array<QuadCell, 4> children(const QuadCell& cell) {
+  int d = cell.depth + 1, i = 2 * cell.i, j = 2 * cell.j;
+  return {QuadCell{cell.quad, d, i, j}, QuadCell{cell.quad, d, i + 1, j}, QuadCell{cell.quad, d, i + 1, j + 1},
+          QuadCell{cell.quad, d, i, j + 1}};
+}
+
+RefinedMesh split_cells(const RefinedMesh& base, const std::vector<QuadCell>& cells) {
+  RefinedMesh out;
+  out.positions = base.positions;
+  out.normals = base.normals;
+  out.input_vertex = base.input_vertex;
+  bool with_rho = !base.corner_reflectance.empty(), with_emission = !base.corner_emission.empty();
+  auto add_vertex = [&](const dvec3& p, const dvec3& n) {
+    out.positions.push_back(p);
+    if (!out.normals.empty()) out.normals.push_back(unit_or_zero(n));
+    return int(out.positions.size()) - 1;
+  };
+  SegmentPoints on_sides;
+  struct InsideHash {
+    size_t operator()(const std::array<long long, 3>& k) const {
+      return std::hash<long long>()((k[0] * 1031 + k[1]) * 1031 + k[2]);
+    }
+  };
+  std::unordered_map<std::array<long long, 3>, int, InsideHash> inside;  // (quad, u, v) in kWhole parts
+  // The vertex at (u, v) of quad q, in kWhole parts: on a side, shared with the quad across it.
+  auto vertex_at = [&](int q, long long u, long long v) {
+    const std::array<int, 4>& c = base.quads[q];
+    auto make = [&](int from, int to, double t) {
+      return add_vertex((1 - t) * out.positions[from] + t * out.positions[to],
+                        out.normals.empty() ? dvec3(0.0) : (1 - t) * out.normals[from] + t * out.normals[to]);
+    };
+    if (v == 0) return on_sides.at(c[0], c[1], u, make);
+    if (u == kWhole) return on_sides.at(c[1], c[2], v, make);
+    if (v == kWhole) return on_sides.at(c[2], c[3], kWhole - u, make);
+    if (u == 0) return on_sides.at(c[3], c[0], kWhole - v, make);
+    auto [it, fresh] = inside.try_emplace({q, u, v}, -1);
+    if (fresh) {
+      dvec3 corner[4], normal[4];
+      for (int k = 0; k < 4; ++k) {
+        corner[k] = base.positions[c[k]];
+        normal[k] = out.normals.empty() ? dvec3(0.0) : base.normals[c[k]];
+      }
+      double s = double(u) / kWhole, t = double(v) / kWhole;
+      it->second = add_vertex(bilinear(corner, s, t), bilinear(normal, s, t));
+    }
+    return it->second;
+  };
+  for (const QuadCell& cell : cells) {
+    if (cell.depth < 0 || cell.depth > kMaxCellDepth || cell.quad < 0 || cell.quad >= int(base.quads.size()))
+      throw std::invalid_argument("split_cells: a cell outside its quad's quadtree");
+    long long step = kWhole >> cell.depth;
+    const long long corner_uv[4][2] = {{cell.i * step, cell.j * step},
+                                       {(cell.i + 1) * step, cell.j * step},
+                                       {(cell.i + 1) * step, (cell.j + 1) * step},
+                                       {cell.i * step, (cell.j + 1) * step}};
+    std::array<int, 4> quad;
+    std::array<dvec3, 4> rho, emission;
+    for (int k = 0; k < 4; ++k) {
+      long long u = corner_uv[k][0], v = corner_uv[k][1];
+      quad[k] = vertex_at(cell.quad, u, v);
+      double s = double(u) / kWhole, t = double(v) / kWhole;
+      if (with_rho) rho[k] = bilinear(base.corner_reflectance[cell.quad].data(), s, t);
+      if (with_emission) emission[k] = bilinear(base.corner_emission[cell.quad].data(), s, t);
+    }
+    out.quads.push_back(quad);
+    out.quad_face.push_back(base.quad_face[cell.quad]);
+    if (with_rho) out.corner_reflectance.push_back(rho);
+    if (with_emission) out.corner_emission.push_back(emission);
+  }
+  return out;
 }
 
 }  // namespace radiosity

@@ -33,4 +33,23 @@ RefinedMesh refine_mesh(const MeshDesc& mesh, const std::vector<int>& levels);
 // The quads refine_mesh makes, worked out without refining.
 long long quad_count(const MeshDesc& mesh, const std::vector<int>& levels);
 
+// A cell of a quadtree over one quad of a refined mesh, in the quad's bilinear (u, v) domain:
+// [i, i + 1] x [j, j + 1] / 2^depth.
+struct QuadCell {
+  int quad = 0;
+  int depth = 0;
+  int i = 0, j = 0;
+};
+constexpr int kMaxCellDepth = 8;  // a cell's depth within its quad
+
+// The four cells a cell splits into, in split_cells' order.
+std::array<QuadCell, 4> children(const QuadCell& cell);
+
+// `base` with each of its quads split into the cells `cells` lists for it (which tile every quad;
+// quads in the order of `cells`). Each cell is bilinear in its quad: positions, shading normals,
+// corner reflectance and emission interpolated there, so a Catmull-Clark quad is split flat, within
+// its limit-surface corners. Where cells of different depths meet, the finer one's corner lies on
+// the coarser one's edge (a T-junction), which is straight: no gap opens for rays.
+RefinedMesh split_cells(const RefinedMesh& base, const std::vector<QuadCell>& cells);
+
 }  // namespace radiosity

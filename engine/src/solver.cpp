@@ -47,12 +47,12 @@ const Settings& validated(const Settings& s) {
 
 }  // namespace
 
-Solver::Impl::Impl(SceneDesc s, const Settings& st)
+Solver::Impl::Impl(SceneDesc s, const Settings& st, const std::vector<std::vector<QuadCell>>& cells)
     : workers(st.threads), scene(std::move(s)), settings(validated(st)), db_cache(settings.db_cache_mb) {
   scene.validate();
   std::vector<std::string> coincident;
   workers.run([&] {
-    mesh = build_patch_mesh(scene, settings);
+    mesh = build_patch_mesh(scene, settings, cells);
     coincident = merge_coincident_patches(mesh, scene.meshes);
     tree = ClusterTree::build(mesh);
     std::vector<bool> dynamic, visible;
@@ -78,6 +78,9 @@ void Solver::Impl::fit_to_mesh(int first_object) {
   cut_shooters();
   stats.patches = int(mesh.patches.size());
   stats.points = int(mesh.points.size());
+  stats.uniform_patches = 0;
+  for (size_t o = 0; o < mesh.objects.size(); ++o)
+    stats.uniform_patches += quad_count(scene.meshes[o], mesh.objects[o].face_levels) << (2 * settings.light_refinement);
 }
 
 void Solver::Impl::cut_shooters() {
@@ -392,8 +395,11 @@ dvec3 Solver::Impl::corner_value(int slot, bool near) const {
          mesh.reflectance[slot] * (front[point] + (near ? near_direct_correction(point) : dvec3(0.0)));
 }
 
-Solver::Solver(SceneDesc scene, const Settings& settings)
-    : impl_(std::make_unique<Impl>(std::move(scene), settings)) {}
+Solver::Solver(SceneDesc scene, const Settings& settings) {
+  std::vector<std::vector<QuadCell>> cells;
+  if (settings.light_refinement > 0) cells = Impl::cells_by_light(scene, settings);
+  impl_ = std::make_unique<Impl>(std::move(scene), settings, cells);
+}
 Solver::~Solver() = default;
 
 // Every call that works does so on the Solver's own threads (parallel.h).

@@ -80,7 +80,19 @@ struct Solver::Impl {
     std::optional<WorldMap> world;
   } pending;
 
-  Impl(SceneDesc s, const Settings& st);
+  // `cells`: per mesh, the light's splits of its refined quads (light_refinement.h); empty: none.
+  Impl(SceneDesc s, const Settings& st, const std::vector<std::vector<QuadCell>>& cells = {});
+  // light_refinement.cpp: refinement driven by the light, which splits patches where the light
+  // across them changes (a shadow's edge, a lamp or emitter seen in part), not where it is flat.
+  // Per mesh of `scene`, the cells its refined quads split into (ObjectPatches::cells). Each round
+  // solves on the patches so far to a loose threshold (the marks need the light's shape, not its
+  // last bounce), splits in four the patches light_marks marks, and stops after
+  // Settings::light_refinement rounds, when none is marked, or before passing Settings::max_patches.
+  // Empty when no patch was split.
+  static std::vector<std::vector<QuadCell>> cells_by_light(const SceneDesc& scene, const Settings& settings);
+  // Per patch, whether the light across it changes by more than `contrast` of its brightest
+  // (Settings::light_contrast), from the solution so far.
+  std::vector<char> light_marks(double contrast) const;
 
   const Material& material(int patch) const { return scene.materials[mesh.patches[patch].material]; }
 

@@ -14,6 +14,11 @@ struct Settings {
   int samples_indirect = 16;
   // Bilinear objects without their own patch size are split to this fraction of the scene diagonal.
   double patch_size_relative = 1.0 / 32.0;
+  // Refinement driven by the light (light_refinement.cpp): patches start at patch_size_relative, and
+  // a patch across which the light changes by more than `light_contrast` of its brightest is split
+  // in four, up to this many times over, each time after a solve on the patches so far. 0: none.
+  int light_refinement = 0;
+  double light_contrast = 0.25;
   // Reflected light shoots from clusters of patches about this fraction of the scene diagonal across
   // (coarse shooters, fine receivers): their number does not grow with the receiver count.
   double shooter_size_relative = 1.0 / 8.0;

@@ -18,6 +18,9 @@ struct SolveStats {
   long shots = 0;            // shots so far (lamps count as one)
   long long rays = 0;        // visibility rays so far
   int patches = 0, points = 0, shooters = 0;
+  // The patches uniform refinement would make down to the smallest the light may split them to
+  // (Settings::light_refinement): patches' counterpart.
+  long long uniform_patches = 0;
   int threads = 0;           // the last solve() or update() worked on (Settings::threads)
   double relaxation = 1.0;   // the over-relaxation the last shots took (Settings::relaxation 0: chosen)
   long long touched_points = 0;  // last update(): receiving points whose light was recomputed
