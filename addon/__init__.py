@@ -13,22 +13,23 @@ bl_info = {
 if "bpy" in locals():                       # F8 / reload: re-import the submodules
     import importlib
     for _m in ("errors", "engine", "settings", "writeback", "texture", "world", "export", "checks", "effects",
-               "scene_diff", "estimate", "job", "live_update", "bake_stats", "farm_cache", "farm", "texel_raster",
-               "texel_filter", "texel_padding", "uv_charts", "lightmap", "display", "properties", "operators",
-               "panels"):
+               "scene_diff", "estimate", "job", "live_progress", "live_update", "bake_stats", "farm_cache", "farm",
+               "texel_raster", "texel_filter", "texel_padding", "uv_charts", "lightmap", "display", "properties",
+               "operators", "panels"):
         if _m in locals():
             importlib.reload(locals()[_m])
 
 import bpy  # noqa: E402
 
 from . import (errors, engine, settings, writeback, texture, world, export, checks, effects,  # noqa: E402,F401
-               scene_diff, estimate, job, live_update, bake_stats, farm_cache, farm, texel_raster, texel_filter,
-               texel_padding, uv_charts, lightmap, display, properties, operators, panels)
+               scene_diff, estimate, job, live_progress, live_update, bake_stats, farm_cache, farm, texel_raster,
+               texel_filter, texel_padding, uv_charts, lightmap, display, properties, operators, panels)
 
 # One list, registered in order and unregistered in reverse (like Blender's glTF add-on).
 classes = (
     *properties.classes,
     *operators.classes,
+    *live_progress.classes,
     *panels.classes,
 )
 
@@ -38,9 +39,11 @@ def register():
         bpy.utils.register_class(c)
     properties.register_props()
     live_update.register_handlers()
+    live_progress.register_keymap()
 
 
 def unregister():
+    live_progress.unregister_keymap()
     live_update.unregister_handlers()
     properties.unregister_props()
     for c in reversed(classes):

@@ -45,7 +45,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import lightmap, writeback
+from . import lightmap, live_progress, writeback
 from . import export as exporter
 from .lightmap_updates import Lightmaps
 from .errors import BakeError
@@ -185,7 +185,9 @@ def mark_served(scene, frame):
 def forget(scene_name=None):
     """Drop the live Solver(s) and what was written (clear, file load, unregister)."""
     for name in [n for n in playback if scene_name in (None, n)]:
-        playback.pop(name)[0].join()
+        thread, job, _base, _info = playback.pop(name)
+        job.cancel()                       # what it would write is dropped: no need to shoot on
+        thread.join()
     for d in (live_jobs, last_written, last_sync, _served, lightmap_state):
         if scene_name is None:
             d.clear()
@@ -321,6 +323,8 @@ def _end(scene, job, base, info):
     if info["mode"] == "error":
         print("Radiosity: live update failed:", info["reason"])
         return info
+    if job.cancel_requested:
+        return _cancelled(scene, job, info)
     if job.rebuild_reason and base is not None:
         print(f"Radiosity: live update: {job.rebuild_reason}; {REBUILD_NOTE}: new solver, "
               f"full solve ({job.seconds:.2f} s)")
@@ -347,6 +351,28 @@ def _end(scene, job, base, info):
                 converged=bool(st.get("converged", True)), settled=job.settled,
                 restart=st.get("restart") or None, budgeted=job.budget is not None,
                 rays=job.rays, shots=job.shots, written=len(written), lightmaps_written=sorted(pixels))
+    return info
+
+
+def _cancelled(scene, job, info):
+    """_end of an update stopped by cancel(): nothing is written, the colours and lightmaps stay the
+    last complete update's. The engine stops an update at a complete shot, after its gathers (which it
+    does not cut short), and a solve at a complete shot: job's Solver then holds job's scene
+    consistently, with what it left unshot, and the next update shoots on from it. Stopped before the
+    engine ran (stats None), the Solver may hold part of the change: it is dropped, and the next
+    change solves the scene afresh."""
+    if job.stats is not None and job.error is None:
+        job.cancel_requested = False          # a consistent state: the base of the next update
+        live_jobs[scene.name] = job
+        note = "the next change shoots on from where it stopped"
+    else:
+        note = "the next change solves the scene afresh"
+    state = lightmap_state.get(scene.name)
+    if state is not None:
+        state.forget()                        # the light changed since the lightmaps' evaluation
+    info.update(mode="cancelled", reason=f"the colours are the last complete update's; {note}",
+                seconds_total=time.perf_counter() - info["start"])
+    print(f"Radiosity: live update of frame {info['frame']} cancelled: {info['reason']}")
     return info
 
 
@@ -409,8 +435,12 @@ def play(scene, depsgraph=None, frame_change=False, settle=False, edit=True):
             if _kept(info, edit and not settle):          # a settle's result stays the last recorded
                 _record(scene, info)
             return False
-        # A new Solver's first solve is not cut short: its first shots carry most of the light.
-        budget = frame_budget(scene) if job.incremental and not settle else None
+        # A frame's time of shooting while frames or edits keep coming; a frame change on its own
+        # (scrubbing, the arrow keys) shoots to the update's stop. A new Solver's first solve is not
+        # cut short: its first shots carry most of the light.
+        quick = not settle and (playing() or not frame_change)
+        budget = frame_budget(scene) if job.incremental and quick else None
+        info["settle"] = settle
         thread = threading.Thread(target=_solve, args=(job, info, budget), daemon=True)
         playback[scene.name] = (thread, job, base, info)
         thread.start()
@@ -418,6 +448,41 @@ def play(scene, depsgraph=None, frame_change=False, settle=False, edit=True):
         _state["busy"] = False
     if not bpy.app.timers.is_registered(_watch):
         bpy.app.timers.register(_watch, first_interval=WATCH_INTERVAL)
+    if not bpy.app.background:
+        live_progress.follow()
+    return True
+
+
+def running(scene):
+    """(job, info) of the update of `scene` running in the worker, or None."""
+    r = playback.get(scene.name)
+    if r is None or not r[0].is_alive():
+        return None
+    return r[1], r[3]
+
+
+def progress(scene):
+    """The update of `scene` running in the worker as the UI shows it (live_progress's status text),
+    or None: {"frame", "fraction" (0..1), "residual", "seconds" (since its export), "settle" (shooting
+    to the solve's threshold after playback or edits stopped), "cancelling" (cancel() asked, the
+    engine or the colour read still finishing)}."""
+    r = running(scene)
+    if r is None:
+        return None
+    job, info = r
+    return {"frame": info["frame"], "fraction": job.fraction, "residual": job.residual,
+            "seconds": time.perf_counter() - info["start"], "settle": info.get("settle", False),
+            "cancelling": job.cancel_requested}
+
+
+def cancel(scene):
+    """Stop the update of `scene` running in the worker (Esc: live_progress): the engine stops at its
+    next shot, nothing is read nor written (_cancelled), and nothing more is shot until the next
+    change. Whether one ran."""
+    r = running(scene)
+    if r is None:
+        return False
+    r[0].cancel()
     return True
 
 
@@ -443,6 +508,8 @@ def _watch():
         return None                                       # nothing ran, nothing left to shoot
     if not scene.radiosity.live_update or (info is not None and info["mode"] == "error"):
         return None
+    if info is not None and info["mode"] == "cancelled":
+        return None                                       # stopped by Esc: shot on at the next change
     return WATCH_INTERVAL if play(scene, settle=True) else None
 
 
@@ -543,7 +610,8 @@ def on_frame_change(scene, depsgraph=None):
     if _served_from_cache(scene):
         return
     try:
-        (play if playing() else sync)(scene, depsgraph, frame_change=True)
+        # Background mode has no event loop: there the update ends before frame_set returns.
+        (play if playing() or not bpy.app.background else sync)(scene, depsgraph, frame_change=True)
     except Exception as e:   # noqa: BLE001
         print("Radiosity: live update failed:", e)
 
@@ -629,7 +697,7 @@ def unregister_handlers():
         handlers = getattr(bpy.app.handlers, lst)
         for h in [h for h in handlers if _ours(h, fn)]:
             handlers.remove(h)
-    for timer in (_flush, _watch):
+    for timer in (_flush, _watch, live_progress.follow_timer):
         if bpy.app.timers.is_registered(timer):
             bpy.app.timers.unregister(timer)
     forget()
