@@ -333,7 +333,7 @@ def _end(scene, job, base, info):
         return info
     live_jobs[scene.name] = job
     t2 = time.perf_counter()
-    written, _messages = write(scene, colours)
+    written, messages = write(scene, colours)
     for name, rgba in pixels.items():           # complete: an image keeps its pixels until here
         image = lightmap.write_image(lightmap.image_name(name), rgba.shape[1], rgba.shape[0], rgba)
         _echo_images.add(image.name)
@@ -350,7 +350,8 @@ def _end(scene, job, base, info):
                 points=points, residual=float(st.get("residual", 0.0)),
                 converged=bool(st.get("converged", True)), settled=job.settled,
                 restart=st.get("restart") or None, budgeted=job.budget is not None,
-                rays=job.rays, shots=job.shots, written=len(written), lightmaps_written=sorted(pixels))
+                rays=job.rays, shots=job.shots, written=len(written), lightmaps_written=sorted(pixels),
+                patches=int(st.get("patches", 0)), warnings=list(job.warnings) + messages)
     return info
 
 
@@ -378,7 +379,20 @@ def _cancelled(scene, job, info):
 
 def _record(scene, info):
     last_sync[scene.name] = info
+    if not bpy.app.background:
+        _redraw_panels()
     return info
+
+
+def _redraw_panels():
+    """The panels read last_sync when drawn: a worker's update ends between the events that would
+    redraw them. Only the regions that hold panels, not the viewports."""
+    wm = bpy.context.window_manager
+    for window in wm.windows if wm is not None else ():
+        for area in window.screen.areas if window.screen is not None else ():
+            for region in area.regions:
+                if (area.type, region.type) in (('PROPERTIES', 'WINDOW'), ('VIEW_3D', 'UI')):
+                    region.tag_redraw()
 
 
 def finish(scene):

@@ -165,6 +165,8 @@ def steps():
     report["update"] = {"mode": info["mode"], "frame": info["frame"], "budgeted": info["budgeted"],
                         "status_texts": [t for t in shown if t]}
     report["rms_vs_sync"] = relative_rms(stacked(colours), stacked(reference))
+    recorded = live.last_sync[scene.name]               # what the panel reads
+    report["update"]["recorded"] = {k: recorded.get(k) for k in ("frame", "mode", "patches", "points", "settled")}
     yield from wait_until(settled, "the settle")
     report["settles"] = [(i["mode"], i["frame"]) for i, _c in written[1:]]
     report["update"]["status_cleared"] = shown[-1] is None

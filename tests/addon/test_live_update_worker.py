@@ -58,6 +58,9 @@ def test_a_frame_change_returns_at_once_and_updates_in_the_worker(report):
     assert report["handler_seconds"] < sync["seconds"] / 4
     update = report["update"]
     assert (update["mode"], update["frame"], update["budgeted"]) == ("incremental", 2, False)
+    recorded = update["recorded"]                       # live_update.last_sync: what the panel shows
+    assert (recorded["frame"], recorded["mode"]) == (2, "incremental")
+    assert recorded["patches"] > 0 and recorded["points"] > 0
 
 
 def test_the_worker_writes_what_the_main_thread_would(report):
