@@ -14,22 +14,36 @@
   light may have changed (lightmap_updates.py). New quality settings, an object added
   beyond the scene's size, or deleted and replaced objects outweighing the scene (scene_diff.outgrown)
   need a new Solver and a full solve (printed).
-- While the animation plays (play()), the frame handler never waits for the engine: the export and
-  diff run on the main thread, Solver.update() in a worker thread with one frame's time of shooting
-  (BakeJob's budget); what it leaves above the threshold is shot by the next update (temporal
-  coherence). Frames that pass while it runs are not solved apart: the next update takes the scene
-  as it is then, and the first frame after it ends writes its colours (the near direct light
-  interpolated: Exact Contact Light is read on the settle). Waiting instead would not keep up
-  however small the budget: a room of thousands of vertices spends several frames' time in a move's
-  gathers, which cannot be cut short, before its first shot. When playback stops (_watch),
-  the rest is shot to the threshold, in the worker as well: the colours are a full update's. The
-  main thread only exports, diffs and writes; the worker also reads the colours (with the exact
-  contact light, seconds in a large room). Scripts' frame_set and background mode finish every frame's
-  update before returning (sync()); an update stops short of the solve's threshold where a frame's
-  accuracy allows (the engine's update_threshold), and the settle shoots on to it.
-- Edits in the viewport (an object dragged, a slider moved) take the same path: waiting for each
-  would freeze the UI for the whole update at every step of a drag (most of a second in a large
-  room). Once edits have stopped for EDIT_QUIET seconds, _watch shoots the rest to the threshold.
+- In an interactive Blender the handlers never wait for the engine (play()): the export and diff
+  run on the main thread, Solver.update() and the reads of the colours and lightmaps (with the exact
+  contact light, seconds in a large room) in a worker thread, and the colours and lightmaps are
+  written only once complete: until then the old ones stay. An update that comes while one runs
+  is not queued: the next update takes the scene as it is then. The main thread only exports,
+  diffs and writes.
+  - While the animation plays, an update gets one frame's time of shooting (BakeJob's budget); what
+    it leaves above the threshold is shot by the next update (temporal coherence). Frames that pass
+    while it runs are not solved apart, and the first frame after it ends writes its colours (the
+    near direct light interpolated: Exact Contact Light is read on the settle). Waiting instead would
+    not keep up however small the budget: a room of thousands of vertices spends several frames'
+    time in a move's gathers, which cannot be cut short, before its first shot.
+  - A frame change on its own (scrubbing, the arrow keys, a script's frame_set) shoots to the
+    update's stop: the engine's update_threshold, short of the solve's threshold where a frame's
+    accuracy allows.
+  - Edits in the viewport (an object dragged, a slider moved) get a frame's time of shooting too:
+    waiting for each would freeze the UI for the whole update at every step of a drag.
+  - Once playback and edits have stopped (for EDIT_QUIET seconds), _watch shoots the rest to the
+    solve's threshold (the settle), in the worker as well, taking any change that came meanwhile.
+  - An update that runs longer than a moment shows its progress in the status bar, and Esc stops
+    it (live_progress.py, cancel()): the engine stops at a complete shot, nothing is written, and
+    the Solver, consistent with its scene and what it left unshot, is kept for the next change to
+    shoot on from; nothing is settled until then.
+  Background mode (no event loop) finishes every frame's and edit's update before returning (sync()),
+  at the update's stop.
+- What the panels show: `last_sync[scene name]`, what the last update did (mode: "incremental",
+  "full", "unchanged", "skipped", "cancelled" or "error"; frame, reason, seconds_total from its
+  export to its colours written, residual, settled, patches, points, touched_points, shots, rays,
+  warnings...), recorded when the colours are written, which redraws the panels; `progress(scene)`,
+  the update running in the worker.
 
 Never while a render runs: a render job (is_job_running('RENDER' / 'OBJECT_BAKE')) or a render
 depsgraph gets no live solves. Cached frames are written only by the render pipeline's own frame
