@@ -338,7 +338,7 @@ def _end(scene, job, base, info):
         print("Radiosity: live update failed:", info["reason"])
         return info
     if job.cancel_requested:
-        return _cancelled(scene, job, info)
+        return _cancelled(scene, job, base, info)
     if job.rebuild_reason and base is not None:
         print(f"Radiosity: live update: {job.rebuild_reason}; {REBUILD_NOTE}: new solver, "
               f"full solve ({job.seconds:.2f} s)")
@@ -369,17 +369,20 @@ def _end(scene, job, base, info):
     return info
 
 
-def _cancelled(scene, job, info):
+def _cancelled(scene, job, base, info):
     """_end of an update stopped by cancel(): nothing is written, the colours and lightmaps stay the
     last complete update's. The engine stops an update at a complete shot, after its gathers (which it
     does not cut short), and a solve at a complete shot: job's Solver then holds job's scene
-    consistently, with what it left unshot, and the next update shoots on from it. Stopped before the
-    engine ran (stats None), the Solver may hold part of the change: it is dropped, and the next
-    change solves the scene afresh."""
+    consistently, with what it left unshot, and the next update shoots on from it. An update stopped
+    before it sent anything leaves base's Solver as it was; a new Solver stopped before its first
+    solve is dropped, and the next change solves the scene afresh."""
     if job.stats is not None and job.error is None:
         job.cancel_requested = False          # a consistent state: the base of the next update
         live_jobs[scene.name] = job
         note = "the next change shoots on from where it stopped"
+    elif job.incremental and job.error is None:
+        live_jobs[scene.name] = base          # BakeJob.solve stopped before sending the changes
+        note = "the next change updates the scene as it was before"
     else:
         note = "the next change solves the scene afresh"
     state = lightmap_state.get(scene.name)

@@ -14,6 +14,7 @@ import sys
 import threading
 
 import bpy
+import numpy as np
 import pytest
 
 from conftest import ROOT, SAMPLES, load_engine
@@ -114,3 +115,32 @@ def test_a_frame_change_while_one_runs_is_taken_by_the_next_update(addon, monkey
     err = relative_rms(stacked(now), stacked(fresh_bake(scene)))
     print(f"frame 2 in the worker, frame 3 taken by the settle, vs fresh bake: {100 * err:.3f}% RMS")
     assert err < BOUND
+
+
+def test_an_update_cancelled_before_it_sends_anything_keeps_the_solver(addon, monkeypatch):
+    """Esc as the worker starts: the changes were never sent, so the scene's Solver is the one before,
+    and the next frame change updates it (not a full solve); nothing is written meanwhile."""
+    live = addon.live_update
+    scene = open_blend("animated_room")
+    scene.radiosity.live_update = True
+    scene.frame_set(1)
+    before = read(scene)
+    base = live.live_jobs[scene.name]
+    held = threading.Event()
+    solve = live._solve
+    monkeypatch.setattr(live, "_solve", lambda *args: (held.wait(), solve(*args)))
+    with live.suspended():
+        scene.frame_set(2)
+    assert live.play(scene, frame_change=True)
+    assert live.progress(scene)["frame"] == 2
+    assert live.cancel(scene) and live.progress(scene)["cancelling"]
+    held.set()
+    live.playback[scene.name][0].join()
+    assert live._watch() is None                         # cancelled: nothing settles
+    info = live.last_sync[scene.name]
+    assert (info["frame"], info["mode"]) == (2, "cancelled"), info
+    assert live.live_jobs[scene.name] is base
+    assert all(np.array_equal(before[k], v) for k, v in read(scene).items())
+    monkeypatch.setattr(live, "_solve", solve)
+    scene.frame_set(3)
+    assert live.last_sync[scene.name]["mode"] == "incremental"
