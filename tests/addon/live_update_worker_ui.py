@@ -27,11 +27,9 @@ import bpy
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, HERE)
-sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
 from conftest import load_package  # noqa: E402
-from reference import relative_rms  # noqa: E402
+from test_live_update import read as read_scene, relative_rms, stacked  # noqa: E402
 
 ARGS = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 OUT = ARGS[0]
@@ -66,7 +64,7 @@ def _spy_solve(job, info, budget=None):
     if until is not None:
         solve = job.solve
 
-        def held(progress=None, budget=None):
+        def held(_progress=None, budget=None):
             def hold(_fraction, _residual):
                 t = time.perf_counter()
                 while not until(job) and time.perf_counter() - t < WAIT:
@@ -94,12 +92,7 @@ _handlers[_handlers.index(live.on_frame_change)] = _timed
 
 
 def read():
-    return {ob.name: pkg.writeback.read_mesh(ob.data).copy() for ob in scene.objects
-            if ob.type == 'MESH' and pkg.writeback.ATTRIBUTE in ob.data.color_attributes}
-
-
-def stacked(colours):
-    return np.concatenate([colours[k][:, :3] for k in sorted(colours)])
+    return read_scene(scene)
 
 
 def ui():

@@ -83,7 +83,7 @@ def test_esc_stops_the_update_and_leaves_the_colours(report):
     after = report["after_esc"]                        # the stopped update's Solver, updated on
     assert (after["mode"], after["frame"]) == ("incremental", 4)
     assert after["finite"] and after["changed"] > 1e-3
-    assert after["rms_vs_fresh"] < 0.005                # settled: a fresh bake's, as for any frame
+    assert after["rms_vs_fresh"] < BOUND                # settled: a fresh bake's, as test_live_update's
 
 
 def test_a_frame_change_while_one_runs_is_taken_by_the_next_update(addon, monkeypatch):
