@@ -20,6 +20,7 @@ Writes what it measured to OUT.json and quits.
 import json
 import os
 import sys
+import threading
 import time
 import traceback
 
@@ -61,7 +62,7 @@ def _spy_end(sc, job, base, info):
 
 def _spy_solve(job, info, budget=None):
     until = gate["until"]
-    if until is not None:
+    if until is not None and threading.current_thread() is not threading.main_thread():
         solve = job.solve
 
         def held(_progress=None, budget=None):
@@ -152,6 +153,7 @@ def steps():
         del got[:]
     gate["until"] = lambda job: any(shown)        # held at its first shot until the status bar shows it
     report["handler_seconds"], report["started_in_worker"] = yield from right_arrow()
+    assert report["started_in_worker"], "the frame change's update ran on the main thread"
     yield from wait_until(lambda: written, "the update's colours")
     gate["until"] = None
     info, colours = written[0]
