@@ -27,8 +27,9 @@ def status(scene):
     if p["cancelling"]:
         return f"Radiosity: stopping the live update of frame {p['frame']}"
     what = "settling" if p["settle"] else "live update of"
-    return (f"Radiosity: {what} frame {p['frame']}: {100 * p['fraction']:.0f}%, "
-            f"residual {p['residual']:.2e}, {p['seconds']:.1f} s  (Esc to cancel)")
+    # Nothing is reported before the first shot (the change's gathers, the bulk of a move's cost).
+    shooting = f"{100 * p['fraction']:.0f}%, residual {p['residual']:.2e}, " if p["fraction"] > 0 else ""
+    return f"Radiosity: {what} frame {p['frame']}: {shooting}{p['seconds']:.1f} s  (Esc to cancel)"
 
 
 def _set_text(text):
