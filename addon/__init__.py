@@ -13,7 +13,7 @@ bl_info = {
 if "bpy" in locals():                       # F8 / reload: re-import the submodules
     import importlib
     for _m in ("errors", "engine", "settings", "writeback", "texture", "world", "export", "checks", "effects",
-               "scene_diff", "preferences", "estimate", "job", "live_update", "bake_stats", "farm_cache", "farm",
+               "scene_diff", "preferences", "estimate", "job", "live_progress", "live_update", "bake_stats", "farm_cache", "farm",
                "texel_raster", "texel_filter", "texel_padding", "uv_charts", "lightmap", "display", "properties",
                "operators", "panels"):
         if _m in locals():
@@ -22,7 +22,7 @@ if "bpy" in locals():                       # F8 / reload: re-import the submodu
 import bpy  # noqa: E402
 
 from . import (errors, engine, settings, writeback, texture, world, export, checks, effects,  # noqa: E402,F401
-               scene_diff, preferences, estimate, job, live_update, bake_stats, farm_cache, farm, texel_raster,
+               scene_diff, preferences, estimate, job, live_progress, live_update, bake_stats, farm_cache, farm, texel_raster,
                texel_filter, texel_padding, uv_charts, lightmap, display, properties, operators, panels)
 
 # One list, registered in order and unregistered in reverse (like Blender's glTF add-on).
@@ -30,6 +30,7 @@ classes = (
     *preferences.classes,
     *properties.classes,
     *operators.classes,
+    *live_progress.classes,
     *panels.classes,
 )
 
@@ -39,9 +40,11 @@ def register():
         bpy.utils.register_class(c)
     properties.register_props()
     live_update.register_handlers()
+    live_progress.register_keymap()
 
 
 def unregister():
+    live_progress.unregister_keymap()
     live_update.unregister_handlers()
     properties.unregister_props()
     for c in reversed(classes):

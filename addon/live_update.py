@@ -14,22 +14,36 @@
   light may have changed (lightmap_updates.py). New quality settings, an object added
   beyond the scene's size, or deleted and replaced objects outweighing the scene (scene_diff.outgrown)
   need a new Solver and a full solve (printed).
-- While the animation plays (play()), the frame handler never waits for the engine: the export and
-  diff run on the main thread, Solver.update() in a worker thread with one frame's time of shooting
-  (BakeJob's budget); what it leaves above the threshold is shot by the next update (temporal
-  coherence). Frames that pass while it runs are not solved apart: the next update takes the scene
-  as it is then, and the first frame after it ends writes its colours (the near direct light
-  interpolated: Exact Contact Light is read on the settle). Waiting instead would not keep up
-  however small the budget: a room of thousands of vertices spends several frames' time in a move's
-  gathers, which cannot be cut short, before its first shot. When playback stops (_watch),
-  the rest is shot to the threshold, in the worker as well: the colours are a full update's. The
-  main thread only exports, diffs and writes; the worker also reads the colours (with the exact
-  contact light, seconds in a large room). Scripts' frame_set and background mode finish every frame's
-  update before returning (sync()); an update stops short of the solve's threshold where a frame's
-  accuracy allows (the engine's update_threshold), and the settle shoots on to it.
-- Edits in the viewport (an object dragged, a slider moved) take the same path: waiting for each
-  would freeze the UI for the whole update at every step of a drag (most of a second in a large
-  room). Once edits have stopped for EDIT_QUIET seconds, _watch shoots the rest to the threshold.
+- In an interactive Blender the handlers never wait for the engine (play()): the export and diff
+  run on the main thread, Solver.update() and the reads of the colours and lightmaps (with the exact
+  contact light, seconds in a large room) in a worker thread, and the colours and lightmaps are
+  written only once complete: until then the old ones stay. An update that comes while one runs
+  is not queued: the next update takes the scene as it is then. The main thread only exports,
+  diffs and writes.
+  - While the animation plays, an update gets one frame's time of shooting (BakeJob's budget); what
+    it leaves above the threshold is shot by the next update (temporal coherence). Frames that pass
+    while it runs are not solved apart, and the first frame after it ends writes its colours (the
+    near direct light interpolated: Exact Contact Light is read on the settle). Waiting instead would
+    not keep up however small the budget: a room of thousands of vertices spends several frames'
+    time in a move's gathers, which cannot be cut short, before its first shot.
+  - A frame change on its own (scrubbing, the arrow keys, a script's frame_set) shoots to the
+    update's stop: the engine's update_threshold, short of the solve's threshold where a frame's
+    accuracy allows.
+  - Edits in the viewport (an object dragged, a slider moved) get a frame's time of shooting too:
+    waiting for each would freeze the UI for the whole update at every step of a drag.
+  - Once playback and edits have stopped (for EDIT_QUIET seconds), _watch shoots the rest to the
+    solve's threshold (the settle), in the worker as well, taking any change that came meanwhile.
+  - An update that runs longer than a moment shows its progress in the status bar, and Esc stops
+    it (live_progress.py, cancel()): the engine stops at a complete shot, nothing is written, and
+    the Solver, consistent with its scene and what it left unshot, is kept for the next change to
+    shoot on from; nothing is settled until then.
+  Background mode (no event loop) finishes every frame's and edit's update before returning (sync()),
+  at the update's stop.
+- What the panels show: `last_sync[scene name]`, what the last update did (mode: "incremental",
+  "full", "unchanged", "skipped", "cancelled" or "error"; frame, reason, seconds_total from its
+  export to its colours written, residual, settled, patches, points, touched_points, shots, rays,
+  warnings...), recorded when the colours are written, which redraws the panels; `progress(scene)`,
+  the update running in the worker.
 
 Never while a render runs: a render job (is_job_running('RENDER' / 'OBJECT_BAKE')) or a render
 depsgraph gets no live solves. Cached frames are written only by the render pipeline's own frame
@@ -45,7 +59,7 @@ import bpy
 import numpy as np
 from bpy.app.handlers import persistent
 
-from . import lightmap, writeback
+from . import lightmap, live_progress, writeback
 from . import export as exporter
 from .lightmap_updates import Lightmaps
 from .errors import BakeError
@@ -185,7 +199,9 @@ def mark_served(scene, frame):
 def forget(scene_name=None):
     """Drop the live Solver(s) and what was written (clear, file load, unregister)."""
     for name in [n for n in playback if scene_name in (None, n)]:
-        playback.pop(name)[0].join()
+        thread, job, _base, _info = playback.pop(name)
+        job.cancel()                       # what it would write is dropped: no need to shoot on
+        thread.join()
     for d in (live_jobs, last_written, last_sync, _served, lightmap_state):
         if scene_name is None:
             d.clear()
@@ -321,6 +337,8 @@ def _end(scene, job, base, info):
     if info["mode"] == "error":
         print("Radiosity: live update failed:", info["reason"])
         return info
+    if job.cancel_requested:
+        return _cancelled(scene, job, base, info)
     if job.rebuild_reason and base is not None:
         print(f"Radiosity: live update: {job.rebuild_reason}; {REBUILD_NOTE}: new solver, "
               f"full solve ({job.seconds:.2f} s)")
@@ -329,7 +347,7 @@ def _end(scene, job, base, info):
         return info
     live_jobs[scene.name] = job
     t2 = time.perf_counter()
-    written, _messages = write(scene, colours)
+    written, messages = write(scene, colours)
     for name, rgba in pixels.items():           # complete: an image keeps its pixels until here
         image = lightmap.write_image(lightmap.image_name(name), rgba.shape[1], rgba.shape[0], rgba)
         _echo_images.add(image.name)
@@ -346,13 +364,52 @@ def _end(scene, job, base, info):
                 points=points, residual=float(st.get("residual", 0.0)),
                 converged=bool(st.get("converged", True)), settled=job.settled,
                 restart=st.get("restart") or None, budgeted=job.budget is not None,
-                rays=job.rays, shots=job.shots, written=len(written), lightmaps_written=sorted(pixels))
+                rays=job.rays, shots=job.shots, written=len(written), lightmaps_written=sorted(pixels),
+                patches=int(st.get("patches", 0)), warnings=list(job.warnings) + messages)
+    return info
+
+
+def _cancelled(scene, job, base, info):
+    """_end of an update stopped by cancel(): nothing is written, the colours and lightmaps stay the
+    last complete update's. The engine stops an update at a complete shot, after its gathers (which it
+    does not cut short), and a solve at a complete shot: job's Solver then holds job's scene
+    consistently, with what it left unshot, and the next update shoots on from it. An update stopped
+    before it sent anything leaves base's Solver as it was; a new Solver stopped before its first
+    solve is dropped, and the next change solves the scene afresh."""
+    if job.stats is not None and job.error is None:
+        job.cancel_requested = False          # a consistent state: the base of the next update
+        live_jobs[scene.name] = job
+        note = "the next change shoots on from where it stopped"
+    elif job.incremental and job.error is None:
+        live_jobs[scene.name] = base          # BakeJob.solve stopped before sending the changes
+        note = "the next change updates the scene as it was before"
+    else:
+        note = "the next change solves the scene afresh"
+    state = lightmap_state.get(scene.name)
+    if state is not None:
+        state.forget()                        # the light changed since the lightmaps' evaluation
+    info.update(mode="cancelled", reason=f"the colours are the last complete update's; {note}",
+                seconds_total=time.perf_counter() - info["start"])
+    print(f"Radiosity: live update of frame {info['frame']} cancelled: {info['reason']}")
     return info
 
 
 def _record(scene, info):
     last_sync[scene.name] = info
+    if not bpy.app.background:
+        _redraw_panels()
     return info
+
+
+def _redraw_panels():
+    """The panels read last_sync when drawn: a worker's update ends between the events that would
+    redraw them. Only the regions that hold panels, not the viewports."""
+    wm = bpy.context.window_manager
+    for window in wm.windows if wm is not None else ():
+        for area in window.screen.areas if window.screen is not None else ():
+            for region in area.regions:
+                if (area.type, region.type) in (('PROPERTIES', 'WINDOW'), ('VIEW_3D', 'UI')):
+                    region.tag_redraw()
 
 
 def finish(scene):
@@ -409,8 +466,12 @@ def play(scene, depsgraph=None, frame_change=False, settle=False, edit=True):
             if _kept(info, edit and not settle):          # a settle's result stays the last recorded
                 _record(scene, info)
             return False
-        # A new Solver's first solve is not cut short: its first shots carry most of the light.
-        budget = frame_budget(scene) if job.incremental and not settle else None
+        # A frame's time of shooting while frames or edits keep coming; a frame change on its own
+        # (scrubbing, the arrow keys) shoots to the update's stop. A new Solver's first solve is not
+        # cut short: its first shots carry most of the light.
+        quick = not settle and (playing() or not frame_change)
+        budget = frame_budget(scene) if job.incremental and quick else None
+        info["settle"] = settle
         thread = threading.Thread(target=_solve, args=(job, info, budget), daemon=True)
         playback[scene.name] = (thread, job, base, info)
         thread.start()
@@ -418,6 +479,41 @@ def play(scene, depsgraph=None, frame_change=False, settle=False, edit=True):
         _state["busy"] = False
     if not bpy.app.timers.is_registered(_watch):
         bpy.app.timers.register(_watch, first_interval=WATCH_INTERVAL)
+    if not bpy.app.background:
+        live_progress.follow()
+    return True
+
+
+def running(scene):
+    """(job, info) of the update of `scene` running in the worker, or None."""
+    r = playback.get(scene.name)
+    if r is None or not r[0].is_alive():
+        return None
+    return r[1], r[3]
+
+
+def progress(scene):
+    """The update of `scene` running in the worker as the UI shows it (live_progress's status text),
+    or None: {"frame", "fraction" (0..1), "residual", "seconds" (since its export), "settle" (shooting
+    to the solve's threshold after playback or edits stopped), "cancelling" (cancel() asked, the
+    engine or the colour read still finishing)}."""
+    r = running(scene)
+    if r is None:
+        return None
+    job, info = r
+    return {"frame": info["frame"], "fraction": job.fraction, "residual": job.residual,
+            "seconds": time.perf_counter() - info["start"], "settle": info.get("settle", False),
+            "cancelling": job.cancel_requested}
+
+
+def cancel(scene):
+    """Stop the update of `scene` running in the worker (Esc: live_progress): the engine stops at its
+    next shot, nothing is read nor written (_cancelled), and nothing more is shot until the next
+    change. Whether one ran."""
+    r = running(scene)
+    if r is None:
+        return False
+    r[0].cancel()
     return True
 
 
@@ -443,6 +539,8 @@ def _watch():
         return None                                       # nothing ran, nothing left to shoot
     if not scene.radiosity.live_update or (info is not None and info["mode"] == "error"):
         return None
+    if info is not None and info["mode"] == "cancelled":
+        return None                                       # stopped by Esc: shot on at the next change
     return WATCH_INTERVAL if play(scene, settle=True) else None
 
 
@@ -543,7 +641,8 @@ def on_frame_change(scene, depsgraph=None):
     if _served_from_cache(scene):
         return
     try:
-        (play if playing() else sync)(scene, depsgraph, frame_change=True)
+        # Background mode has no event loop: there the update ends before frame_set returns.
+        (play if playing() or not bpy.app.background else sync)(scene, depsgraph, frame_change=True)
     except Exception as e:   # noqa: BLE001
         print("Radiosity: live update failed:", e)
 
@@ -629,7 +728,7 @@ def unregister_handlers():
         handlers = getattr(bpy.app.handlers, lst)
         for h in [h for h in handlers if _ours(h, fn)]:
             handlers.remove(h)
-    for timer in (_flush, _watch):
+    for timer in (_flush, _watch, live_progress.follow_timer):
         if bpy.app.timers.is_registered(timer):
             bpy.app.timers.unregister(timer)
     forget()
