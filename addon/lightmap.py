@@ -12,7 +12,7 @@ import os
 import bpy
 import numpy as np
 
-from . import texel_filter, texel_padding, texel_raster, uv_charts
+from . import export, texel_filter, texel_padding, texel_raster, uv_charts
 
 IMAGE_SUFFIX = "_Radiosity"
 AVERAGED_AT_ONCE = 65536   # texels averaged in one engine call: bounds the memory of their samples
@@ -55,13 +55,17 @@ def _triangles(me, layer):
     return uv.reshape(-1, 2)[loops].reshape(t, 3, 2), faces, vertices.reshape(t, 3)
 
 
-def texels(solver, index, positions, me, layer, width, height):
+def texels(solver, index, positions, me, layer, width, height, engine_face=None):
     """(height, width, 4) float32 RGBA: each covered texel's light from `solver` (object `index`,
-    whose input mesh has `positions`, object space, and me's faces), averaged over its footprint
-    as Cycles' bake does where the light changes (texel_filter.py), the rest padded, alpha 1.
-    Alpha is 1 on padding too: images are stored with colour premultiplied by alpha, so a padded
-    texel of alpha 0 would lose its colour when packed or saved."""
+    whose input mesh has me's faces; `positions` me's vertices, object space), averaged over its
+    footprint as Cycles' bake does where the light changes (texel_filter.py), the rest padded,
+    alpha 1. `engine_face`, per face of me, the input face it lies on where me is not the input
+    mesh: a Subdivision Surface's subdivided mesh, whose points the engine takes onto the limit
+    surface it refines that face to. Alpha is 1 on padding too: images are stored with colour
+    premultiplied by alpha, so a padded texel of alpha 0 would lose its colour when packed or saved."""
     uv, faces, vertices = _triangles(me, layer)
+    if engine_face is not None:
+        faces = engine_face[faces]
     corners = positions[vertices]
 
     def light(triangle, bary):
@@ -95,8 +99,6 @@ def targets(job):
         me = ob.data
         if ob.library is not None or me.library is not None:
             skipped.append(f"'{ob.name}' uses linked library data: no lightmap")
-        elif m.refine == "catmull_clark":
-            skipped.append(f"'{ob.name}': lightmaps of Subdivision Surface objects are not made yet")
         elif not m.matches_original or len(m.face_sizes) != len(me.polygons) or len(m.positions) != len(me.vertices):
             skipped.append(f"'{ob.name}': modifiers change its faces: no lightmap")
         elif not me.polygons:
@@ -104,6 +106,20 @@ def targets(job):
         else:
             out.append((ob, m))
     return out, skipped
+
+
+def subdivided(ob, face_sizes, level):
+    """(mesh, engine_face): ob's mesh as Cycles renders and bakes it, its Subdivision Surface on at
+    its render level `level`, with the cage's UV maps subdivided as Blender subdivides them; and per
+    face of it the cage face it comes from, None if the count is not Blender's. The caller removes
+    the mesh. Blender's subdivided mesh holds each cage face's faces together, in the cage's order:
+    an n-gon's n quads split into 4^(level - 1) each (a quad's 4^level)."""
+    ob.data.update()       # a RadiosityUV map just made is subdivided too
+    me = export._render_meshes([ob], bpy.context.evaluated_depsgraph_get(), subdivided=True)[ob.name]
+    children = np.asarray(face_sizes, np.int64) * 4 ** (level - 1)
+    if children.sum() != len(me.polygons):
+        return me, None
+    return me, np.repeat(np.arange(len(children), dtype=np.int32), children)
 
 
 def bake(job, props):
@@ -123,8 +139,21 @@ def bake(job, props):
         if layer is None:
             messages.append(f"'{ob.name}' has no room for a UV map '{uv_charts.UV_MAP}': no lightmap")
             continue
-        done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], m.positions, ob.data, layer,
-                                               width, height))
+        if m.refine != "catmull_clark":
+            done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], m.positions, ob.data, layer,
+                                                   width, height))
+            continue
+        me, engine_face = subdivided(ob, m.face_sizes, m.level)
+        try:
+            if engine_face is None:
+                messages.append(f"'{ob.name}': its subdivided mesh's faces are not in Blender's order: no lightmap")
+                continue
+            co = np.empty(3 * len(me.vertices), np.float64)
+            me.vertices.foreach_get("co", co)
+            done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], co.reshape(-1, 3), me,
+                                                   me.uv_layers[uv_charts.UV_MAP], width, height, engine_face))
+        finally:
+            bpy.data.meshes.remove(me)
     for object_name, (width, height, rgba) in done.items():
         write_image(image_name(object_name), width, height, rgba)
     return list(done), messages

@@ -191,7 +191,12 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
       int c = (on.u < 0.5 ? (on.v < 0.5 ? 0 : 3) : (on.v < 0.5 ? 1 : 2));
       double off = std::max(std::min(on.u, 1 - on.u), std::min(on.v, 1 - on.v));
       double onto = std::max(0.0, 1.0 - off / kCornerReach);
-      at[i].position = y + onto * (s.mesh.points[patch.point[c]].position - y);
+      // A point inside a twisted patch (a curved surface's) may lie behind the two triangles Embree
+      // traces for it: lifted off it as far as it lies off them, its rays leave in front of them.
+      dvec3 corners[4];
+      for (int k = 0; k < 4; ++k) corners[k] = s.mesh.vertices[patch.vertex[k]];
+      double lift = bilinear_lift(bilinear_twist(corners, patch.normal), on.u, on.v);
+      at[i].position = y + onto * (s.mesh.points[patch.point[c]].position - y) + lift * n;
       at[i].normal = n;
       light[i] = emission + reflectance[i] * reflected;
     });
