@@ -72,6 +72,7 @@ BOUNDS = {
     ("animated_room", 1, "HIGH"): (0.0068, 0.027, None, 0.0045),          # 0.61 / 2.56 / 0.40 / 0.37%, 41 s
     ("animated_room", 12, "HIGH"): (0.011, 0.026, None, 0.0065),          # 1.02 / 2.44 / 0.59 / 0.55%, 42 s
     ("animated_room", 24, "HIGH"): (0.0088, 0.028, None, 0.005),          # 0.81 / 2.60 / 0.48 / 0.41%, 42 s
+    ("interior_room", None, "HIGH"): (0.016, 0.029, None, None),         # 1.48 / 2.74 / 0.46 / -, 65 s
 }
 # reference kind -> corner_reference's inset: at the corner itself (ill-posed where it lies on a
 # junction with another surface), or a little inside its face
