@@ -390,11 +390,11 @@ def _evaluated_otherwise(m):
         (m.show_render and hasattr(m, "render_levels") and m.levels != m.render_levels)
 
 
-def _render_meshes(objects, depsgraph):
+def _render_meshes(objects, depsgraph, subdivided=False):
     """{name: Mesh copy} of `objects` (originals) as Cycles renders them (a bake evaluates for render,
     the viewport's depsgraph for the viewport): each modifier shown as in renders and at its render
-    level, but the last Subdivision Surface off, as it goes to the engine as cage and level. One
-    depsgraph update for all of them, then restore."""
+    level, but the last Subdivision Surface off, as it goes to the engine as cage and level (on with
+    `subdivided`: the mesh Cycles itself renders). One depsgraph update for all of them, then restore."""
     if not objects:
         return {}
     saved = []          # (modifier, show_viewport, levels or None)
@@ -403,7 +403,7 @@ def _render_meshes(objects, depsgraph):
         for m in ob.modifiers:
             levels = m.levels if hasattr(m, "render_levels") else None
             saved.append((m, m.show_viewport, levels))
-            m.show_viewport = m.show_render and m != sub
+            m.show_viewport = m.show_render and (subdivided or m != sub)
             if levels is not None:
                 m.levels = m.render_levels
     try:

@@ -12,7 +12,7 @@ import os
 import bpy
 import numpy as np
 
-from . import texel_filter, texel_padding, texel_raster, uv_charts
+from . import export, texel_filter, texel_padding, texel_raster, uv_charts
 
 IMAGE_SUFFIX = "_Radiosity"
 AVERAGED_AT_ONCE = 65536   # texels averaged in one engine call: bounds the memory of their samples
@@ -57,11 +57,16 @@ def _triangles(me, layer):
 
 class Raster:
     """What a lightmap's texels show of a mesh, which its light does not change: each covered
-    texel's triangle and barycentric point (texel_raster.py), each triangle's face and vertices,
-    and how its barycentric coordinates step per texel (the footprint, texel_filter.py)."""
+    texel's triangle and barycentric point (texel_raster.py), each triangle's engine face and
+    vertices, and how its barycentric coordinates step per texel (the footprint, texel_filter.py).
+    `engine_face` and `positions` where me is not the engine's input mesh but a Subdivision
+    Surface's subdivided mesh: per face of me the input face it lies on (the engine takes its points
+    onto the limit surface it refines that face to), and me's vertices, object space."""
 
-    def __init__(self, me, layer, width, height):
-        uv, self.faces, self.vertices = _triangles(me, layer)
+    def __init__(self, me, layer, width, height, engine_face=None, positions=None):
+        uv, faces, self.vertices = _triangles(me, layer)
+        self.faces = faces if engine_face is None else engine_face[faces]
+        self.positions = positions
         self.width, self.height = width, height
         self.texel, self.triangle, self.bary = texel_raster.rasterise(uv, width, height)
         self.steps = texel_filter.barycentric_steps(uv * (width, height))
@@ -75,7 +80,7 @@ def texels(solver, index, positions, raster):
     texel of alpha 0 would lose its colour when packed or saved."""
     width, height = raster.width, raster.height
     texel, triangle, bary = raster.texel, raster.triangle, raster.bary
-    corners = positions[raster.vertices]
+    corners = (positions if raster.positions is None else raster.positions)[raster.vertices]
 
     def light(triangle, bary):
         at = np.einsum("nk,nkj->nj", bary, corners[triangle])
@@ -106,8 +111,6 @@ def targets(job):
         me = ob.data
         if ob.library is not None or me.library is not None:
             skipped.append(f"'{ob.name}' uses linked library data: no lightmap")
-        elif m.refine == "catmull_clark":
-            skipped.append(f"'{ob.name}': lightmaps of Subdivision Surface objects are not made yet")
         elif not m.matches_original or len(m.face_sizes) != len(me.polygons) or len(m.positions) != len(me.vertices):
             skipped.append(f"'{ob.name}': modifiers change its faces: no lightmap")
         elif not me.polygons:
@@ -149,6 +152,36 @@ def no_room(ob):
     return f"'{ob.name}' has no room for a UV map '{uv_charts.UV_MAP}': no lightmap"
 
 
+def subdivided(ob, face_sizes, level):
+    """(mesh, engine_face): ob's mesh as Cycles renders and bakes it, its Subdivision Surface on at
+    its render level `level`, with the cage's UV maps subdivided as Blender subdivides them; and per
+    face of it the cage face it comes from, None if the count is not Blender's. The caller removes
+    the mesh. Blender's subdivided mesh holds each cage face's faces together, in the cage's order:
+    an n-gon's n quads split into 4^(level - 1) each (a quad's 4^level)."""
+    ob.data.update()       # a RadiosityUV map just made is subdivided too
+    me = export._render_meshes([ob], bpy.context.evaluated_depsgraph_get(), subdivided=True)[ob.name]
+    children = np.asarray(face_sizes, np.int64) * 4 ** (level - 1)
+    if children.sum() != len(me.polygons):
+        return me, None
+    return me, np.repeat(np.arange(len(children), dtype=np.int32), children)
+
+
+def raster(ob, m, layer, width, height):
+    """(Raster of ob's lightmap, None), or (None, why it gets none). A Subdivision Surface object's
+    texels follow the subdivided mesh Cycles renders and bakes, and its UVs."""
+    if m.refine != "catmull_clark":
+        return Raster(ob.data, layer, width, height), None
+    me, engine_face = subdivided(ob, m.face_sizes, m.level)
+    try:
+        if engine_face is None:
+            return None, f"'{ob.name}': its subdivided mesh's faces are not in Blender's order: no lightmap"
+        co = np.empty(3 * len(me.vertices), np.float64)
+        me.vertices.foreach_get("co", co)
+        return Raster(me, me.uv_layers[uv_charts.UV_MAP], width, height, engine_face, co.reshape(-1, 3)), None
+    finally:
+        bpy.data.meshes.remove(me)
+
+
 def bake(job, props):
     """Lightmaps of every target of a solved job. Returns (written object names, messages).
     Makes the RadiosityUV maps it needs; writes no image unless all were worked out."""
@@ -161,8 +194,11 @@ def bake(job, props):
             messages.append(no_room(ob))
             continue
         width, height, layer = laid
-        done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], m.positions,
-                                               Raster(ob.data, layer, width, height)))
+        laid_out, why = raster(ob, m, layer, width, height)
+        if laid_out is None:
+            messages.append(why)
+            continue
+        done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], m.positions, laid_out))
     for object_name, (width, height, rgba) in done.items():
         write_image(image_name(object_name), width, height, rgba)
     return list(done), messages

@@ -26,13 +26,15 @@ CHANGED = 1e-3
 _PLACE_CALLS = {"set_transform", "set_positions", "set_visible"}
 
 
-def _raster_key(me, layer, width, height):
-    """What an object's Raster depends on: its faces, its RadiosityUV map and the image's size."""
+def _raster_key(me, m, layer, width, height):
+    """What an object's Raster depends on: its faces, its RadiosityUV map and the image's size;
+    under a Subdivision Surface also its cage's shape, which places the subdivided mesh's points."""
     uv = np.empty(2 * len(me.loops), np.float32)
     layer.data.foreach_get("uv", uv)
     sizes = np.empty(len(me.polygons), np.int32)
     me.polygons.foreach_get("loop_total", sizes)
-    return width, height, hash(uv.tobytes()), hash(sizes.tobytes())
+    cage = hash(np.ascontiguousarray(m.positions).tobytes()) if m.refine == "catmull_clark" else None
+    return width, height, hash(uv.tobytes()), hash(sizes.tobytes()), cage
 
 
 def changed(reference, corners):
@@ -58,16 +60,20 @@ class Lightmaps:
         A raster is made again where the object's faces, RadiosityUV map or image size changed."""
         found, messages = lightmap.targets(job)
         plan = {}
-        for ob, _m in found:
+        for ob, m in found:
             laid = lightmap.layout(ob, props)
             if laid is None:
                 messages.append(lightmap.no_room(ob))
                 continue
             width, height, layer = laid
-            key = _raster_key(ob.data, layer, width, height)
+            key = _raster_key(ob.data, m, layer, width, height)
             kept = self.rasters.get(ob.name)
             if kept is None or kept[0] != key:
-                kept = self.rasters[ob.name] = (key, lightmap.Raster(ob.data, layer, width, height))
+                laid_out, why = lightmap.raster(ob, m, layer, width, height)
+                if laid_out is None:
+                    messages.append(why)
+                    continue
+                kept = self.rasters[ob.name] = (key, laid_out)
                 self.references.pop(ob.name, None)
             plan[ob.name] = kept[1]
         return plan, messages

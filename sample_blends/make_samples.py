@@ -12,6 +12,10 @@ Every object uses a Diffuse BSDF or an Emission node material, so Cycles is a fa
                        Surface modifier, level 2), a plain box, a point lamp and an area lamp.
   animated_room.blend  closed 5 x 5 x 3 m room; "Box" moves along x over frames 1-24 (linear keys)
                        and the point lamp's power ramps 30 W -> 120 W (linear keys).
+  interior_room.blend  closed 5 x 4 x 2.7 m room modelled as artists model interiors: walls, floor
+                       and ceiling one quad each, a table, a sofa, a cabinet and a wall shelf of
+                       boxes with few large faces; an area lamp under the ceiling and a spot lamp,
+                       so that shadows and the spot's hot spot fall inside faces.
 """
 import math
 import os
@@ -118,6 +122,17 @@ def box(name, size, location, rot_z_deg, material, sides=("+Z", "-Y", "+Y", "-X"
     faces = [CUBE_FACES[s] for s in sides]
     return mesh_object(name, cube_verts((-sx / 2, -sy / 2, 0), (sx / 2, sy / 2, sz)), faces, [material],
                        location=location, rotation=(0, 0, math.radians(rot_z_deg)))
+
+
+def boxes(name, parts, material, location, rot_z_deg=0.0):
+    """One object of several outward-facing boxes, each (lo, hi, sides) in the object's frame:
+    furniture as artists model it, a few large faces, the faces that touch something left out."""
+    verts, faces = [], []
+    for lo, hi, sides in parts:
+        faces += [tuple(len(verts) + i for i in CUBE_FACES[s]) for s in sides]
+        verts += cube_verts(lo, hi)
+    return mesh_object(name, verts, faces, [material], location=location,
+                       rotation=(0, 0, math.radians(rot_z_deg)))
 
 
 def lamp(name, kind, location, rotation=(0, 0, 0), color=(1, 1, 1), **props):
@@ -239,10 +254,43 @@ def make_animated_room():
     save("animated_room.blend")
 
 
+def make_interior_room():
+    new_scene()
+    wall = diffuse("Wall", (0.75, 0.73, 0.68))
+    floor = diffuse("Floor", (0.45, 0.3, 0.18))
+    ceiling = diffuse("Ceiling", (0.8, 0.8, 0.8))
+    wood = diffuse("Wood", (0.5, 0.33, 0.2))
+    fabric = diffuse("Fabric", (0.2, 0.3, 0.55))
+    paint = diffuse("Paint", (0.65, 0.66, 0.6))
+    room("Room", (-2.5, -2.0, 0.0), (2.5, 2.0, 2.7), ("-Z", "+Z", "-Y", "+Y", "-X", "+X"),
+         [wall, floor, ceiling], (1, 2, 0, 0, 0, 0))
+    sides = ("-Y", "+Y", "-X", "+X")
+    legs = [((x - 0.03, y - 0.03, 0.0), (x + 0.03, y + 0.03, 0.7), sides)
+            for x in (-0.62, 0.62) for y in (-0.32, 0.32)]
+    boxes("Table", [((-0.7, -0.4, 0.7), (0.7, 0.4, 0.75), tuple(CUBE_FACES))] + legs, wood,
+          (0.3, -0.3, 0.0), 10.0)
+    # against the -Y wall: the back the sofa's full width, the arms and the seat in front of it
+    boxes("Sofa", [((-1.0, -0.45, 0.0), (1.0, -0.25, 0.85), ("+Z", "+Y", "-X", "+X")),
+                   ((-1.0, -0.25, 0.0), (-0.8, 0.45, 0.62), ("+Z", "+Y", "-X", "+X")),
+                   ((0.8, -0.25, 0.0), (1.0, 0.45, 0.62), ("+Z", "+Y", "-X", "+X")),
+                   ((-0.8, -0.25, 0.0), (0.8, 0.45, 0.42), ("+Z", "+Y"))],
+          fabric, (0.2, -1.55, 0.0))
+    boxes("Cabinet", [((-0.5, -0.25, 0.0), (0.5, 0.25, 1.8), ("+Z", "-Y", "-X", "+X"))], paint, (1.6, 1.75, 0.0))
+    boxes("Shelf", [((0.0, -0.6, 1.45), (0.25, 0.6, 1.49), ("+Z", "-Z", "-Y", "+Y", "+X"))], wood,
+          (-2.5, 0.6, 0.0))
+    lamp("CeilingLamp", 'AREA', (-0.4, 0.2, 2.68), energy=120.0, shape='RECTANGLE', size=1.2, size_y=0.6,
+         color=(1.0, 0.95, 0.88))
+    # aimed down at the floor between table and cabinet, its cone's edge on the +X wall
+    lamp("Spot", 'SPOT', (1.9, 0.2, 2.5), rotation=(math.radians(20.0), 0.0, math.radians(-30.0)), energy=150.0,
+         spot_size=math.radians(50.0), spot_blend=0.15, shadow_soft_size=0.05, color=(1.0, 0.85, 0.7))
+    camera((-2.3, -1.8, 1.6), (78.0, 0.0, -50.0), lens=18.0)
+    save("interior_room.blend")
+
+
 if __name__ == "__main__":
     import sys
     only = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     for name, fn in (("cornell_box", make_cornell), ("subsurf_room", make_subsurf_room),
-                     ("animated_room", make_animated_room)):
+                     ("animated_room", make_animated_room), ("interior_room", make_interior_room)):
         if not only or name in only:
             fn()

@@ -3,7 +3,7 @@
 // Interpolating a patch's corners smooths away every shadow and hot spot smaller than the patch. So
 // a point gathers its own direct light (lamps, sky, emitters, with its own visibility), at the
 // solve's direct sampling; the reflected light, which changes slowly across a surface, is the
-// solution's, interpolated within the patch that holds the point.
+// solution's, interpolated within the patch that holds the point from the corners the point sees.
 #include "solver_impl.h"
 
 #include <algorithm>
@@ -107,6 +107,40 @@ class PatchFinder {
   std::unordered_map<uint64_t, std::vector<int>> grid_;
 };
 
+// A patch's corners' reflected light differs by more than this part of the brightest: a point
+// interpolates it only from the corners it sees (reflected_at).
+constexpr double kReflectedContrast = 0.02;
+
+// The solution's reflected light at point y (normal n) of patch `patch`, interpolated by weights w
+// from the corners y sees along the surface. A patch that crosses the foot of a box standing on it
+// has corners under the box, shut off from the light, and corners outside: a point outside takes
+// the light of those outside, a point under the box that of those under it, as a ray tracer's
+// point under the box sees only the box's dark inside. A point that sees none of its corners lies
+// in a pocket they are shut out of: it reflects none. Corners of about equal light are all taken.
+dvec3 reflected_at(const PatchMesh& mesh, const std::vector<dvec3>& reflected, const Visibility* vis,
+                   const Patch& patch, const double (&w)[4], const dvec3& y, const dvec3& n) {
+  dvec3 corner[4];
+  double lo = INFINITY, hi = 0.0;
+  for (int c = 0; c < 4; ++c) {
+    corner[c] = reflected[patch.point[c]];
+    double sum = corner[c].x + corner[c].y + corner[c].z;
+    lo = std::min(lo, sum), hi = std::max(hi, sum);
+  }
+  dvec3 all(0.0), seen(0.0);
+  double weight = 0.0;
+  for (int c = 0; c < 4; ++c) all += w[c] * corner[c];
+  if (!(hi - lo > kReflectedContrast * hi) || !vis) return all;
+  for (int c = 0; c < 4; ++c) {
+    if (w[c] <= 0) continue;
+    const ReceiverPoint& p = mesh.points[patch.point[c]];
+    if (vis->connected(y, n, p.position, glm::length(p.normal) > 0 ? p.normal : n)) {
+      seen += w[c] * corner[c];
+      weight += w[c];
+    }
+  }
+  return weight > 0 ? seen / weight : dvec3(0.0);
+}
+
 // How near a patch corner, in the patch's (u, v), a point takes after the corner's receiving point.
 constexpr double kCornerReach = 0.01;
 // Points whose direct light one batch of rays gathers: a lamp's shadow rays go to Embree together.
@@ -143,22 +177,27 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
       if (q < 0 || s.mesh.patches[q].area == 0) return;
       const Patch& patch = s.mesh.patches[q];
       double w[4] = {(1 - on.u) * (1 - on.v), on.u * (1 - on.v), on.u * on.v, (1 - on.u) * on.v};
-      dvec3 y(0.0), normal(0.0), emission(0.0), reflected(0.0);
+      dvec3 y(0.0), normal(0.0), emission(0.0);
       for (int c = 0; c < 4; ++c) {
-        int point = patch.point[c];
         y += w[c] * s.mesh.vertices[patch.vertex[c]];
-        normal += w[c] * s.mesh.points[point].normal;
+        normal += w[c] * s.mesh.points[patch.point[c]].normal;
         emission += w[c] * s.mesh.emission[4 * q + c];
         reflectance[i] += w[c] * s.mesh.reflectance[4 * q + c];
-        reflected += w[c] * s.reflected_front[point];
       }
+      dvec3 n = glm::length(normal) > 0 ? glm::normalize(normal) : patch.normal;
+      dvec3 reflected = reflected_at(s.mesh, s.reflected_front, s.vis.get(), patch, w, y, n);
       // Right by a patch corner the point slides onto the corner's receiving point, which is nudged
       // into its patches (patch_mesh.cpp): at a face corner a texel then reads what the corner does.
       int c = (on.u < 0.5 ? (on.v < 0.5 ? 0 : 3) : (on.v < 0.5 ? 1 : 2));
       double off = std::max(std::min(on.u, 1 - on.u), std::min(on.v, 1 - on.v));
       double onto = std::max(0.0, 1.0 - off / kCornerReach);
-      at[i].position = y + onto * (s.mesh.points[patch.point[c]].position - y);
-      at[i].normal = glm::length(normal) > 0 ? glm::normalize(normal) : patch.normal;
+      // A point inside a twisted patch (a curved surface's) may lie behind the two triangles Embree
+      // traces for it: lifted off it as far as it lies off them, its rays leave in front of them.
+      dvec3 corners[4];
+      for (int k = 0; k < 4; ++k) corners[k] = s.mesh.vertices[patch.vertex[k]];
+      double lift = bilinear_lift(bilinear_twist(corners, patch.normal), on.u, on.v);
+      at[i].position = y + onto * (s.mesh.points[patch.point[c]].position - y) + lift * n;
+      at[i].normal = n;
       light[i] = emission + reflectance[i] * reflected;
     });
     // Direct light, a block of points to a batch of rays: each gathers under an index past every

@@ -24,7 +24,7 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(ROOT, "build", "engine"))
 import reference  # noqa: E402
 
-SCENES = [("cornell_box", [None]), ("subsurf_room", [None]), ("animated_room", [1, 12, 24])]
+SCENES = [("cornell_box", [None]), ("subsurf_room", [None]), ("animated_room", [1, 12, 24]), ("interior_room", [None])]
 
 
 def load_export():

@@ -56,7 +56,7 @@ import cycles_settings  # noqa: E402
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 SAMPLES_DIR = os.path.join(ROOT, "sample_blends")
-SCENES = [("cornell_box", [None]), ("subsurf_room", [None]), ("animated_room", [1, 12, 24])]
+SCENES = [("cornell_box", [None]), ("subsurf_room", [None]), ("animated_room", [1, 12, 24]), ("interior_room", [None])]
 GRID_EDGE = 0.25           # target grid spacing in metres for the dense layout
 ATTR = "CyclesRef"
 INSET = 0.005              # corner_inset: fraction of the corner-to-centroid distance

@@ -115,3 +115,33 @@ def test_a_stacked_copy_reads_the_light_of_the_face_it_copies():
     copy = solver.surface_radiance(floor_id, np.ones(50, np.int32), points)
     assert first.min() > 0
     np.testing.assert_array_equal(copy, first)
+
+
+def test_the_floor_under_a_box_is_dark_though_its_patches_reach_out_into_the_light():
+    """A box without a bottom stands on a lit floor, turned across the floor's patches: a point under
+    it sees only the box's dark inside, as a ray tracer's point does, though the patches it lies on
+    reach out past the box's foot to lit corners. A point it shuts off from those corners does not
+    read their light; it reads the corners under the box, which hold the little the floor's
+    patches across the foot send into the box (a few percent of the light outside)."""
+    scene = engine.Scene()
+    grey = scene.add_material((0.7, 0.6, 0.5))
+    room, block = Mesh(), Mesh()
+    room.add_box((0, 0, 1), (2, 2, 2), grey, inward=True)       # face 0: the floor, z = 0
+    block.add_box((0.3, -0.2, 0.3), (0.6, 0.6, 0.6), grey, angle=0.4)
+    block.faces, block.materials = block.faces[1:], block.materials[1:]   # no bottom: nothing lies on the floor
+    scene.add_point_light((-0.3, 0.2, 1.6), (5.0, 5.0, 5.0))
+    room_id, _ = [m.add_to(scene, refine="bilinear", patch_size=0.25) for m in (room, block)]
+    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    solver.solve()
+    c, s = math.cos(0.4), math.sin(0.4)
+    grid = np.stack(np.meshgrid(np.linspace(-0.27, 0.27, 12), np.linspace(-0.27, 0.27, 12)), -1).reshape(-1, 2)
+    under = np.c_[0.3 + c * grid[:, 0] - s * grid[:, 1], -0.2 + s * grid[:, 0] + c * grid[:, 1], np.zeros(len(grid))]
+    got = solver.surface_radiance(room_id, np.zeros(len(under), np.int32), under)
+    lit = solver.surface_radiance(room_id, np.zeros(1, np.int32), np.array([[-0.6, 0.6, 0.0]]))
+    assert lit.min() > 0 and got.max() < 0.05 * lit.max()
+    # Some floor patch corners just outside the foot are lit: interpolation alone would show light.
+    positions, radiance = solver.refined(room_id)
+    local = positions[:, :2] - (0.3, -0.2)
+    along = np.abs(np.c_[c * local[:, 0] + s * local[:, 1], -s * local[:, 0] + c * local[:, 1]]).max(axis=1)
+    beside = (np.abs(positions[:, 2]) < 1e-6) & (along > 0.3) & (along < 0.45)
+    assert beside.any() and radiance[beside].max() > 0.5 * lit.max()
