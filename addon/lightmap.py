@@ -3,8 +3,9 @@ each texel the light at the surface point it shows (Solver.surface_radiance: its
 the solution's reflected light), in the units of the Radiosity attribute, what Cycles' COMBINED
 bake writes into an image texture.
 
-Worked out after a successful solve, every image's pixels first, then written: a failure on the
-way leaves the images as they were. Written images are packed into the .blend.
+This module lays texels out and evaluates them; a still bake (lightmap_still.py), live update
+(lightmap_updates.py) and Bake Animation (lightmap_sequence.py) decide when. Written images are
+packed into the .blend.
 """
 import math
 import os
@@ -180,28 +181,6 @@ def raster(ob, m, layer, width, height):
         return Raster(me, me.uv_layers[uv_charts.UV_MAP], width, height, engine_face, co.reshape(-1, 3)), None
     finally:
         bpy.data.meshes.remove(me)
-
-
-def bake(job, props):
-    """Lightmaps of every target of a solved job. Returns (written object names, messages).
-    Makes the RadiosityUV maps it needs; writes no image unless all were worked out."""
-    done, messages = {}, []
-    found, skipped = targets(job)
-    messages += skipped
-    for ob, m in found:
-        laid = layout(ob, props)
-        if laid is None:
-            messages.append(no_room(ob))
-            continue
-        width, height, layer = laid
-        laid_out, why = raster(ob, m, layer, width, height)
-        if laid_out is None:
-            messages.append(why)
-            continue
-        done[ob.name] = (width, height, texels(job.solver, job.ids[m.name], m.positions, laid_out))
-    for object_name, (width, height, rgba) in done.items():
-        write_image(image_name(object_name), width, height, rgba)
-    return list(done), messages
 
 
 def write_image(name, width, height, rgba):

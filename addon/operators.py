@@ -3,8 +3,9 @@
 From a script (execute) the bake runs synchronously. From the UI (invoke) it runs modal: each frame's
 solve runs in a Python thread (the engine releases the GIL), a timer polls it, Esc cancels.
 Colours are written only after every frame solved; a cancel or an error leaves them untouched.
-With Lightmaps on, bake_animation writes each frame's lightmaps as OpenEXR sequences
-(lightmap_sequence.py), put in place and shown by the images only when every frame solved.
+With Lightmaps on, bake writes the lightmaps (lightmap_still.py) and bake_animation each frame's
+lightmaps as OpenEXR sequences (lightmap_sequence.py), evaluated in the solve's thread and written
+or put in place only when every frame solved.
 
 bake_animation solves the first frame in full and every later frame incrementally on the same engine
 Solver (job.BakeJob(base=previous job)): only what changed since the previous frame is re-shot.
@@ -17,6 +18,7 @@ import bpy
 
 from . import bake_stats, display, effects, estimate, farm, lightmap, live_update, writeback
 from .lightmap_sequence import SequenceBake
+from .lightmap_still import StillBake
 from .errors import BakeError
 from .job import BakeJob
 from .scene_diff import REBUILD_NOTE
@@ -69,15 +71,18 @@ def prepare_frame(context, frame, animation, base=None):
     return job
 
 
-def sequence_for(context, animation):
-    """The SequenceBake of an animation bake with Lightmaps on, else None."""
-    return SequenceBake(context.scene) if animation and context.scene.radiosity.lightmaps else None
+def lightmaps_for(context, animation):
+    """With Lightmaps on, what the bake does with them: Bake Animation's SequenceBake, a still bake's
+    StillBake; else None."""
+    if not context.scene.radiosity.lightmaps:
+        return None
+    return SequenceBake(context.scene) if animation else StillBake()
 
 
-def bake_frames(context, frames, animation, progress=None, on_frame=None, sequence=None):
+def bake_frames(context, frames, animation, progress=None, on_frame=None, lightmap_bake=None):
     """Synchronous bake. progress(fraction, residual) -> False cancels; on_frame(frame, colours) as
-    each frame is solved (a farm's chunk writes it out); `sequence` (sequence_for) takes each frame's
-    lightmaps.
+    each frame is solved (a farm's chunk writes it out); `lightmap_bake` (lightmaps_for) takes each
+    frame's lightmaps.
     Returns (jobs, {frame: colours}) with colours None when cancelled. Raises BakeError.
     The first frame is solved in full, later frames incrementally on the same Solver."""
     jobs, results = [], {}
@@ -88,8 +93,8 @@ def bake_frames(context, frames, animation, progress=None, on_frame=None, sequen
         for i, f in enumerate(frames):
             job = prepare_frame(context, f, animation, jobs[-1] if jobs else None)
             jobs.append(job)
-            if sequence is not None:
-                sequence.prepare(job, scene.radiosity)
+            if lightmap_bake is not None:
+                lightmap_bake.prepare(job, scene.radiosity)
 
             def overall(fraction, residual, i=i):
                 return True if progress is None else progress((i + fraction) / n, residual)
@@ -97,8 +102,8 @@ def bake_frames(context, frames, animation, progress=None, on_frame=None, sequen
             if not job.succeeded:
                 return jobs, None
             results[f] = job.colours()
-            if sequence is not None:
-                sequence.write(f, sequence.evaluate(job))
+            if lightmap_bake is not None:
+                lightmap_bake.write(f, lightmap_bake.evaluate(job))
             if on_frame is not None:
                 on_frame(f, results[f])
     finally:
@@ -107,18 +112,17 @@ def bake_frames(context, frames, animation, progress=None, on_frame=None, sequen
     return jobs, results
 
 
-def finish(context, jobs, results, animation, report, sequence=None):
-    """Write the colours (current frame), fill the cache and scene.radiosity's results, put the
-    lightmap sequences in place. The last frame's Solver becomes the scene's live one (live update
+def finish(context, jobs, results, animation, report, lightmap_bake=None):
+    """Write the colours (current frame), fill the cache and scene.radiosity's results, write the
+    lightmaps (or put their sequences in place). The last frame's Solver becomes the scene's live one (live update
     continues from it)."""
     stats = bake_stats.summary(jobs)
-    props = context.scene.radiosity
-    if props.lightmaps and not animation:
-        stats["warnings"] += lightmap.bake(jobs[-1], props)[1]
-    if sequence is not None:
-        stats["warnings"] += sequence.commit()
+    if lightmap_bake is not None:
+        stats["warnings"] += lightmap_bake.commit()
     written = conclude(context, results, stats, animation, report)
     live_update.live_jobs[context.scene.name] = jobs[-1]
+    if isinstance(lightmap_bake, StillBake):
+        live_update.lightmap_state[context.scene.name] = lightmap_bake.updates
     if not animation and stats["converged"]:
         estimate.record(context.scene, stats)
     return written
@@ -199,20 +203,20 @@ class _Bake:
                 return {'CANCELLED'}
             return self._farm_finish(context, run)
         with live_update.suspended():
-            sequence = sequence_for(context, self.animation)
+            lightmap_bake = lightmaps_for(context, self.animation)
             try:
                 jobs, results = bake_frames(context, _frames(context.scene, self.animation), self.animation,
-                                            sequence=sequence)
+                                            lightmap_bake=lightmap_bake)
                 if results is None:
                     self.report({'WARNING'}, "Radiosity: bake cancelled; colours unchanged")
                     return {'CANCELLED'}
-                finish(context, jobs, results, self.animation, self.report, sequence)
+                finish(context, jobs, results, self.animation, self.report, lightmap_bake)
             except BakeError as e:
                 self.report({'ERROR'}, f"Radiosity: {e}")
                 return {'CANCELLED'}
             finally:
-                if sequence is not None:
-                    sequence.discard()      # after commit() nothing is left to discard
+                if lightmap_bake is not None:
+                    lightmap_bake.discard()      # after commit() nothing is left to discard
         return {'FINISHED'}
 
     # ---------------------------------------------------------------- modal
@@ -227,7 +231,7 @@ class _Bake:
                 return {'CANCELLED'}
             return self._modal_begin(context)
         self._jobs, self._results = [], {}
-        self._sequence = sequence_for(context, self.animation)
+        self._lightmap_bake = lightmaps_for(context, self.animation)
         self._start_frame = scene.frame_current
         self._job = None
         self._thread = None
@@ -303,15 +307,15 @@ class _Bake:
 
     def _start(self, context):
         f = self._frames[self._index]
-        sequence = self._sequence
+        lightmap_bake = self._lightmap_bake
         try:
             self._job = prepare_frame(context, f, self.animation, self._jobs[-1] if self._jobs else None)
-            if sequence is not None:
-                sequence.prepare(self._job, context.scene.radiosity)
+            if lightmap_bake is not None:
+                lightmap_bake.prepare(self._job, context.scene.radiosity)
         except Exception as e:   # noqa: BLE001 -- reported (_failure); live update must not stay held
             self.report({'ERROR'}, _failure(e))
-            if sequence is not None:
-                sequence.discard()
+            if lightmap_bake is not None:
+                lightmap_bake.discard()
             self._restore_frame(context)
             return False
         self._jobs.append(self._job)
@@ -326,8 +330,8 @@ class _Bake:
                 # the main thread would freeze Blender.
                 if job.succeeded:
                     self._read = job.colours()
-                    if sequence is not None:
-                        self._lightmaps = sequence.evaluate(job)
+                    if lightmap_bake is not None:
+                        self._lightmaps = lightmap_bake.evaluate(job)
             except Exception as e:   # noqa: BLE001 -- the solve's is in job.error; both reported by modal()
                 self._read = e
         self._thread = threading.Thread(target=run, name="radiosity-solve", daemon=True)
@@ -383,8 +387,8 @@ class _Bake:
             self._job.cancel()
         if self._thread is not None:
             self._thread.join()
-        if self._sequence is not None:
-            self._sequence.discard()
+        if self._lightmap_bake is not None:
+            self._lightmap_bake.discard()
         self._cleanup(context)
         self._restore_frame(context)
 
@@ -413,8 +417,8 @@ class _Bake:
         if isinstance(self._read, Exception):
             raise self._read
         self._results[self._frames[self._index]] = self._read
-        if self._sequence is not None:
-            self._sequence.write(self._frames[self._index], self._lightmaps)
+        if self._lightmap_bake is not None:
+            self._lightmap_bake.write(self._frames[self._index], self._lightmaps)
         self._index += 1
         if self._index < n:
             if not self._start(context):
@@ -423,7 +427,7 @@ class _Bake:
             return {'PASS_THROUGH'}
         self._cleanup(context)
         self._restore_frame(context)
-        finish(context, self._jobs, self._results, self.animation, self.report, self._sequence)
+        finish(context, self._jobs, self._results, self.animation, self.report, self._lightmap_bake)
         return {'FINISHED'}
 
     def cancel(self, context):          # Blender closes the window / file while running

@@ -157,15 +157,16 @@ def test_live_update_keeps_lightmaps_a_fresh_bakes_and_leaves_those_whose_light_
     scene.radiosity.live_update = True
     bpy.data.objects["Blocker"].location = (0.3, -0.25, 0.0)
     bpy.context.view_layer.update()                   # depsgraph_update_post -> live update
-    info = live.last_sync[scene.name]
-    assert info["mode"] == "incremental", info
-    # The first update after a bake evaluates all; each later one only those the move reaches.
-    bpy.data.objects["Blocker"].location = (0.35, -0.3, 0.0)
-    bpy.context.view_layer.update()
-    info = live.last_sync[scene.name]
-    assert info["mode"] == "incremental", info
-    assert {"Floor", "Wall", "Blocker"} <= set(info["lightmaps_evaluated"]), info
-    assert "Far" not in info["lightmaps_evaluated"], info
+    # The bake hands what it evaluated on: already the first update evaluates only what the move
+    # reaches, and so does each later one.
+    for step in range(2):
+        if step:
+            bpy.data.objects["Blocker"].location = (0.35, -0.3, 0.0)
+            bpy.context.view_layer.update()
+        info = live.last_sync[scene.name]
+        assert info["mode"] == "incremental", info
+        assert {"Floor", "Wall", "Blocker"} <= set(info["lightmaps_evaluated"]), info
+        assert "Far" not in info["lightmaps_evaluated"], info
     updated = lightmaps(addon, names)
     assert relative_rms(updated["Floor"], before["Floor"]) > 0.05     # the shadow moved
     fresh = fresh_lightmaps(addon, scene, names)
@@ -290,3 +291,27 @@ def test_the_uis_bake_animation_evaluates_lightmaps_in_its_worker_and_writes_not
     assert on_main and not any(on_main)
     assert image.source == 'SEQUENCE'
     assert len(list((tmp_path / "anim_lightmaps" / "Floor_Radiosity").iterdir())) == 3
+
+
+def test_the_uis_bake_evaluates_lightmaps_in_its_worker_and_writes_them_only_when_done(addon, monkeypatch):
+    """A still bake from the UI (modal): its lightmaps are evaluated in the worker thread (on the main
+    thread Blender would freeze for seconds), and written only once the bake is done; Esc before
+    that leaves them as they were."""
+    from test_addon import modal_bake
+    blocker_scene()
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    image = bpy.data.images["Floor_Radiosity"]
+    before = pixels(image).copy()
+    bpy.data.objects["Blocker"].location = (0.3, -0.25, 0.0)
+    bpy.context.view_layer.update()
+    on_main = []
+    evaluate = addon.lightmap_updates.Lightmaps.evaluate
+    monkeypatch.setattr(addon.lightmap_updates.Lightmaps, "evaluate", lambda self, *args: (
+        on_main.append(threading.current_thread() is threading.main_thread()), evaluate(self, *args))[1])
+    result, reports, _ = modal_bake(addon, stop=lambda op: True)
+    assert result == {'CANCELLED'}, reports
+    np.testing.assert_array_equal(pixels(image), before)
+    result, reports, _ = modal_bake(addon)
+    assert result == {'FINISHED'}, reports
+    assert on_main and not any(on_main)
+    assert relative_rms(pixels(image)[..., :3], before[..., :3]) > 0.05      # the shadow moved
