@@ -53,3 +53,22 @@ def test_five_movers_match_fresh_solves_and_undo_to_the_start():
         move_all(solver, movers, FRAMES[-1])
         error = relative_rms(values(solver, ids), start)
         assert error <= FRAME_BOUND, f"cycle {cycle}: {error:.4%} from the start"
+
+
+def test_the_db_cache_keeps_each_movers_answers_and_changes_nothing():
+    # All five move a frame on and back, in one update each way. Each asks, on the way back, about
+    # the rays it changed on the way there; the others' moves take only those they may block.
+    def play(cache_mb):
+        settings = engine.Settings.preset("draft")
+        settings.db_cache_mb = cache_mb
+        scene, ids, movers = movers_room(FRAMES[0], PATCH_SIZE)
+        solver = engine.Solver(scene, settings)
+        solver.solve()
+        return [(dict(move_all(solver, movers, frame)), values(solver, ids)) for frame in (FRAMES[1], FRAMES[0])]
+
+    cached, uncached = play(256.0), play(0.0)
+    for (stats, got), (_, want) in zip(cached, uncached):
+        assert np.array_equal(got, want)
+    there, back = cached[0][0], cached[1][0]
+    assert there["db_hits"] == 0 < there["db_entries"]
+    assert back["db_hits"] > 0.25 * there["db_misses"]
