@@ -20,19 +20,6 @@ DbCache::DbCache(double megabytes) {
   if (megabytes > 0) cap_ = std::size_t(megabytes * 1024 * 1024);  // NaN or negative: no cache
 }
 
-DbCache::Origin DbCache::origin_of(const RTCRay& ray) {
-  Origin o;
-  std::memcpy(o.data(), &ray.org_x, sizeof o);
-  return o;
-}
-
-DbCache::Rest DbCache::rest_of(const RTCRay& ray) {
-  Rest r;
-  std::memcpy(r.data(), &ray.dir_x, 3 * sizeof(float));
-  std::memcpy(&r[3], &ray.tfar, sizeof(float));
-  return r;
-}
-
 std::size_t DbCache::kept_bytes(std::size_t entries, std::size_t origins) const {
   return entries * sizeof(Known) + origins * (sizeof(Origin) + sizeof(std::vector<Known>) + kAllocation);
 }
@@ -54,44 +41,60 @@ void DbCache::moved(int object, const Zone& zone) {
   tables_[object].moved = ++clock_;
   for (auto& [other, t] : tables_) {
     if (other == object || t.entries == 0) continue;
-    // Per origin, in parallel: a table holds a million answers or more.
-    std::vector<std::size_t> left(t.origins.size());
-    parallel_for(0, int(t.origins.size()), 64, [&](int b) {
-      float o[3];
-      std::memcpy(o, t.origins[b].data(), sizeof o);
-      dvec3 origin(o[0], o[1], o[2]);
-      std::vector<Known>& known = t.known[b];
-      std::size_t was = known.size();
-      known.erase(std::remove_if(known.begin(), known.end(),
-                                 [&](const Known& k) {
-                                   float r[4];
-                                   std::memcpy(r, k.rest.data(), sizeof r);
-                                   return zone.crossed_by(origin, dvec3(r[0], r[1], r[2]), r[3]);
-                                 }),
-                  known.end());
-      if (known.size() < was) known.shrink_to_fit();  // bytes() counts what is held
-      left[b] = known.size();
-    });
-    std::size_t kept = 0, entries = 0;
-    for (std::size_t b = 0; b < t.origins.size(); ++b) {
-      if (left[b] == 0) {
-        std::vector<Known>().swap(t.known[b]);
-        continue;
-      }
-      if (kept < b) t.origins[kept] = t.origins[b], t.known[kept] = std::move(t.known[b]);
-      ++kept;
-      entries += left[b];
-    }
-    t.origins.resize(kept), t.origins.shrink_to_fit();
-    t.known.resize(kept), t.known.shrink_to_fit();
-    t.entries = entries;
+    t.stale.push_back(zone);
+    if (t.stale.size() > kMaxStale) forget_stale(t);
   }
+}
+
+void DbCache::prepare(int object) {
+  auto table = tables_.find(object);
+  if (table != tables_.end()) forget_stale(table->second);
+}
+
+void DbCache::forget_stale(Table& t) {
+  if (t.stale.empty()) return;
+  // Per origin, in parallel: a table holds a million answers or more.
+  std::vector<std::size_t> left(t.origins.size());
+  parallel_for(0, int(t.origins.size()), 64, [&](int b) {
+    float o[3];
+    std::memcpy(o, t.origins[b].data(), sizeof o);
+    dvec3 origin(o[0], o[1], o[2]);
+    std::vector<Known>& known = t.known[b];
+    std::size_t was = known.size();
+    known.erase(std::remove_if(known.begin(), known.end(),
+                               [&](const Known& k) {
+                                 float r[4];
+                                 std::memcpy(r, k.rest.data(), sizeof r);
+                                 dvec3 dir(r[0], r[1], r[2]);
+                                 for (const Zone& zone : t.stale)
+                                   if (zone.crossed_by(origin, dir, r[3])) return true;
+                                 return false;
+                               }),
+                known.end());
+    if (known.size() < was) known.shrink_to_fit();  // bytes() counts what is held
+    left[b] = known.size();
+  });
+  std::vector<Zone>().swap(t.stale);
+  std::size_t kept = 0, entries = 0;
+  for (std::size_t b = 0; b < t.origins.size(); ++b) {
+    if (left[b] == 0) {
+      std::vector<Known>().swap(t.known[b]);
+      continue;
+    }
+    if (kept < b) t.origins[kept] = t.origins[b], t.known[kept] = std::move(t.known[b]);
+    ++kept;
+    entries += left[b];
+  }
+  t.origins.resize(kept), t.origins.shrink_to_fit();
+  t.known.resize(kept), t.known.shrink_to_fit();
+  t.entries = entries;
 }
 
 void DbCache::find(int object, const RTCRay* rays, unsigned count, Answer* answers) const {
   std::fill(answers, answers + count, unknown);
   auto table = tables_.find(object);
-  if (table == tables_.end() || table->second.entries == 0) return;
+  // Not prepared since another object moved: nothing it holds can be trusted.
+  if (table == tables_.end() || table->second.entries == 0 || !table->second.stale.empty()) return;
   const Table& t = table->second;
   const std::vector<Known>* bucket = nullptr;
   Origin last{};
@@ -134,11 +137,11 @@ void DbCache::make_room(int keep, std::size_t more, std::size_t more_origins) {
       if (it->first != keep && it->second.entries > 0 && (oldest == tables_.end() || it->second.moved < oldest->second.moved))
         oldest = it;
     if (oldest == tables_.end()) break;
-    oldest->second = Table{{}, {}, 0, oldest->second.moved};
+    oldest->second = Table{{}, {}, 0, oldest->second.moved, {}};
   }
   if (kept_bytes() + kept_bytes(more, more_origins) > room) {
     Table& own = tables_[keep];
-    own = Table{{}, {}, 0, own.moved};
+    own = Table{{}, {}, 0, own.moved, {}};
   }
 }
 
@@ -158,6 +161,7 @@ void DbCache::commit() {
   // answer: kept, 72 at most).
   make_room(staging_, staged_.size(), fresh.size());
   Table& t = tables_[staging_];
+  forget_stale(t);  // prepared before the gather, unless the gather asked nothing
 
   // Every origin, each with its answers so far (none, if fresh).
   std::vector<Origin> origins;

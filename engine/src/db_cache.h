@@ -21,7 +21,9 @@
 // Each moved object has answers of its own: several objects moving at once (a frame of an animation)
 // each ask about their own rays, frame after frame. An answer about the scene without one object
 // holds until another object changes where that other can block the ray: its place before or
-// after (moved, with its Zone). Only those rays go; the rest stay.
+// after (moved, with its Zone). Only those rays go; the rest stay. They go when the object's answers
+// are next asked for (prepare): several objects moving in one update cost one pass over each
+// object's answers, not one per mover.
 // Memory stays under the cap (what is kept and one update's new answers together); when full, the
 // answers of the objects that moved longest ago go first, and if that is not room enough the cache
 // starts over with the latest update's answers, the ones the next move most likely asks for.
@@ -34,6 +36,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <mutex>
 #include <vector>
@@ -54,6 +57,9 @@ class DbCache {
   // answers about the scene without any other object go for the rays it may block in either place.
   // Its own stay: they are about the scene without it.
   void moved(int object, const Zone& zone);
+  // Before a gather of `object`'s changed rays: forgets what other objects' moves since made wrong.
+  // Until then find() knows nothing of it.
+  void prepare(int object);
   // What is known of each ray through the scene without `object`; read-only, so safe from every
   // thread of a gather while others stage().
   void find(int object, const RTCRay* rays, unsigned count, Answer* answers) const;
@@ -94,9 +100,22 @@ class DbCache {
     std::vector<std::vector<Known>> known;   // per origin, sorted by rest
     std::size_t entries = 0;
     long long moved = 0;  // when the object last moved (DbCache::clock_)
+    std::vector<Zone> stale;  // other objects' moves since prepare(): what they may block goes
   };
-  static Origin origin_of(const RTCRay& ray);
-  static Rest rest_of(const RTCRay& ray);
+  static constexpr std::size_t kMaxStale = 32;  // moves kept in `stale` before they are applied
+  void forget_stale(Table& t);
+  // Inline: asked once a ray, on every thread of a gather.
+  static Origin origin_of(const RTCRay& ray) {
+    Origin o;
+    std::memcpy(o.data(), &ray.org_x, sizeof o);
+    return o;
+  }
+  static Rest rest_of(const RTCRay& ray) {
+    Rest r;
+    std::memcpy(r.data(), &ray.dir_x, 3 * sizeof(float));
+    std::memcpy(&r[3], &ray.tfar, sizeof(float));
+    return r;
+  }
   std::size_t kept_bytes(std::size_t entries, std::size_t origins) const;
   std::size_t kept_bytes() const;  // of all tables
   // Drops the tables of the objects that moved longest ago, then `keep`'s own, until `more`

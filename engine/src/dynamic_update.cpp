@@ -539,6 +539,7 @@ void Solver::Impl::send_again(ObjectChange& change) {
 // most of a room's sources pass near no moved object for most receivers.
 void Solver::Impl::gather_changed_rays(ObjectChange& change) {
   ReceiverGroups groups = group_receivers(mesh, tree, kGroupRadius * settings.shooter_size_relative * mesh.diagonal);
+  db_cache.prepare(change.object);
   ChangedRays changed(*vis, change.object, change.zone, db_cache);
   auto gather_changed = [&](const std::vector<Source>& others) {
     std::vector<std::vector<int>> reaching(groups.bounds.size());  // per group, sources by index

@@ -86,13 +86,17 @@ TEST(DbCache, ForgetsOnlyWhatAnotherObjectsMoveMayBlock) {
   answer(cache, 0, 10, 4);
   cache.moved(3, {kOnRay1, kOnRay1});  // its own answers are about the scene without it
   EXPECT_EQ(find(cache, ray(1), 3), DbCache::blocked);
+  EXPECT_EQ(find(cache, ray(2), 4), DbCache::unknown);  // not prepared since 3 moved
+  cache.prepare(4);
   EXPECT_EQ(find(cache, ray(1), 4), DbCache::unknown);
   EXPECT_EQ(find(cache, ray(2), 4), DbCache::clear);
   EXPECT_EQ(cache.entries(), 19u);
   cache.moved(5, {kAside, kOnRay1});  // either place counts
+  cache.prepare(3);
   EXPECT_EQ(find(cache, ray(1), 3), DbCache::unknown);
   EXPECT_EQ(find(cache, ray(3), 3), DbCache::blocked);
   cache.moved(5, {kAside, kAside});
+  cache.prepare(3), cache.prepare(4);
   EXPECT_EQ(cache.entries(), 18u);
 }
 
@@ -117,12 +121,14 @@ TEST(DbCache, ItsCapHoldsOverAllObjectsAndTheOldestMoverGoesFirst) {
     cache.moved(object, {kAside, kAside});
     answer(cache, 0, 20, object);
   }
+  cache.prepare(0);
   EXPECT_EQ(find(cache, ray(1), 0), DbCache::blocked);
   for (int round = 0; round < 10; ++round) {
     cache.moved(1 + round % 2, {kAside, kAside});  // objects 1 and 2 move on, 0 not
     answer(cache, 20 * round, 20 * round + 20, 1 + round % 2);
     EXPECT_LE(cache.bytes(), cap);
   }
+  cache.prepare(0);
   EXPECT_EQ(find(cache, ray(1), 0), DbCache::unknown);
   EXPECT_EQ(find(cache, ray(199), 2), DbCache::blocked);
 }
