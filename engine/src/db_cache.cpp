@@ -131,6 +131,8 @@ void DbCache::stage(int object, const RTCRay* rays, const unsigned* which, const
 
 void DbCache::make_room(int keep, std::size_t more, std::size_t more_origins) {
   std::size_t room = cap_ / 4 * 3;
+  if (kept_bytes() + kept_bytes(more, more_origins) > room)  // what other moves made wrong goes first
+    for (auto& [object, t] : tables_) forget_stale(t);
   while (kept_bytes() + kept_bytes(more, more_origins) > room) {
     auto oldest = tables_.end();
     for (auto it = tables_.begin(); it != tables_.end(); ++it)

@@ -25,8 +25,9 @@
 // are next asked for (prepare): several objects moving in one update cost one pass over each
 // object's answers, not one per mover.
 // Memory stays under the cap (what is kept and one update's new answers together); when full, the
-// answers of the objects that moved longest ago go first, and if that is not room enough the cache
-// starts over with the latest update's answers, the ones the next move most likely asks for.
+// answers other objects' moves made wrong go first, then those of the objects that moved longest
+// ago, and if that is not room enough the cache starts over with the latest update's answers, the
+// ones the next move most likely asks for.
 #pragma once
 
 #include "bounds.h"
@@ -118,8 +119,8 @@ class DbCache {
   }
   std::size_t kept_bytes(std::size_t entries, std::size_t origins) const;
   std::size_t kept_bytes() const;  // of all tables
-  // Drops the tables of the objects that moved longest ago, then `keep`'s own, until `more`
-  // entries at `more_origins` new origins fit what is kept.
+  // Drops what other moves made wrong, then the tables of the objects that moved longest ago, then
+  // `keep`'s own, until `more` entries at `more_origins` new origins fit what is kept.
   void make_room(int keep, std::size_t more, std::size_t more_origins);
 
   std::size_t cap_ = 0;  // bytes: three quarters for what is kept, a quarter for staging
