@@ -136,7 +136,8 @@ void DbCache::make_room(int keep, std::size_t more, std::size_t more_origins) {
   while (kept_bytes() + kept_bytes(more, more_origins) > room) {
     auto oldest = tables_.end();
     for (auto it = tables_.begin(); it != tables_.end(); ++it)
-      if (it->first != keep && it->second.entries > 0 && (oldest == tables_.end() || it->second.moved < oldest->second.moved))
+      if (it->first != keep && it->second.entries > 0 &&
+          (oldest == tables_.end() || it->second.moved < oldest->second.moved))
         oldest = it;
     if (oldest == tables_.end()) break;
     oldest->second = Table{{}, {}, 0, oldest->second.moved, {}};
