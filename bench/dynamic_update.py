@@ -16,6 +16,8 @@ playback below (default 3; 0 skips it). Scenes:
   room_10k_tex   the same with a 4k image texture on the floor (a generated UV grid)
   wave_10k       room_10k with a flat-shaded 2 m sheet (24 x 24 faces) over the floor under a Wave
                  modifier: its faces bend apart at their shared vertices every frame
+  movers_10k     room_10k with five boxes moving at once on different paths (tests/scenes.py:
+                 mover_places), one floating over another; shadows overlap
 
 Incremental = what live update does on a frame change (export, diff, Solver.update(), colours,
 write-back) through the add-on's own handler; "update" is the engine's Solver.update() alone,
@@ -58,9 +60,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests", "addon"))
 sys.path.insert(0, os.path.join(ROOT, "sample_blends"))
 sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
+sys.path.insert(0, os.path.join(ROOT, "tests"))
 from conftest import load_package  # noqa: E402
 import make_samples as ms  # noqa: E402
 from reference import relative_rms  # noqa: E402
+import scenes  # noqa: E402
 sys.path.insert(0, os.path.join(ROOT, "bench"))
 import tables  # noqa: E402
 
@@ -98,11 +102,12 @@ def grid(origin, u, v, nu, nv):
     return verts, quads
 
 
-def room_scene(vertices, texture=0, wave=False):
+def room_scene(vertices, texture=0, wave=False, movers=False):
     """A 4 x 4 x 3 m room split into quads (about `vertices` vertices), a point lamp under the
     ceiling and a 0.4 m box crossing the floor over frames 1-24 (linear keys); with `texture`, a
     texture x texture image on the floor's colour, over UVs projected from above; with `wave`, a
-    flat-shaded sheet 0.3 m over the floor, rippled by a Wave modifier."""
+    flat-shaded sheet 0.3 m over the floor, rippled by a Wave modifier; with `movers`, five boxes
+    moving at once in place of the one (scenes.mover_places, keyed every frame)."""
     sc = ms.new_scene()
     sc.frame_start, sc.frame_end = 1, 24
     W, H = 4.0, 3.0
@@ -147,11 +152,21 @@ def room_scene(vertices, texture=0, wave=False):
     me.validate()
     ob = bpy.data.objects.new("Room", me)
     sc.collection.objects.link(ob)
-    b = ms.box("Box", (0.4, 0.4, 0.4), (-1.2, 0.3, 0.0), 0.0, ms.diffuse("BoxRed", (0.8, 0.2, 0.15)))
-    b.keyframe_insert("location", frame=1)
-    b.location = (1.2, 0.3, 0.0)
-    b.keyframe_insert("location", frame=24)
-    ms.linear_keys(b)
+    if movers:
+        for k, size in enumerate(scenes.MOVER_SIZES):
+            floats = scenes.mover_places(1)[k][2] > 0
+            b = ms.box(f"Mover{k}", size, (0.0, 0.0, 0.0), 0.0, ms.diffuse(f"Mover{k}", (0.8, 0.2 + 0.15 * k, 0.15)),
+                       sides=("+Z", "-Y", "+Y", "-X", "+X") + (("-Z",) if floats else ()))
+            for f in range(sc.frame_start, sc.frame_end + 1):
+                b.location = scenes.mover_places(f)[k]
+                b.keyframe_insert("location", frame=f)
+            ms.linear_keys(b)
+    else:
+        b = ms.box("Box", (0.4, 0.4, 0.4), (-1.2, 0.3, 0.0), 0.0, ms.diffuse("BoxRed", (0.8, 0.2, 0.15)))
+        b.keyframe_insert("location", frame=1)
+        b.location = (1.2, 0.3, 0.0)
+        b.keyframe_insert("location", frame=24)
+        ms.linear_keys(b)
     ms.lamp("Lamp", 'POINT', (0.0, -0.5, 2.7), energy=300.0, shadow_soft_size=0.0)
     if wave:
         vs, qs = grid((-1.0, -1.0, 0.3), (2.0, 0, 0), (0, 2.0, 0), 24, 24)
@@ -327,7 +342,7 @@ def main():
           f"{FULL_REPEATS} full re-solves a scene; medians; 2 cores (shared)")
     makers = {"animated_room": animated_room, "room_20k": lambda: room_scene(20000),
               "room_10k": lambda: room_scene(10000), "room_10k_tex": lambda: room_scene(10000, 4096),
-              "wave_10k": lambda: room_scene(10000, wave=True)}
+              "wave_10k": lambda: room_scene(10000, wave=True), "movers_10k": lambda: room_scene(10000, movers=True)}
     rows = [run(name, makers[name]) for name in SCENES]
     table(f"{'scene':14} {'vertices':>8} {'points':>7} {'full s':>8} {'update s':>9} {'ratio':>6} "
           f"{'touched':>8} {'live s':>8} {'write ms':>8} {'frame s':>8} {'fps':>6} {'baked fps':>9}",
@@ -380,7 +395,8 @@ def save(rows):
     run = " ".join(sys.argv[sys.argv.index("--") + 1:]) if "--" in sys.argv else ""
     how = (f"`blender -b --factory-startup --python bench/dynamic_update.py -- {run}`".replace(" -- `", "`")
            + f": preset {PRESET.lower()}, {f'{FRAMES} frames' if FRAMES else 'every frame'} of each scene "
-           f"(animated_room: the sample; room_20k / room_10k: a 4 m room with a 0.4 m box crossing the floor), "
+           f"(animated_room: the sample; room_20k / room_10k: a 4 m room with a 0.4 m box crossing the floor; "
+           f"movers_10k: room_10k with five boxes moving at once), "
            f"medians; 2 shared cores.")
     per_scene = []
     for r in rows:

@@ -141,3 +141,55 @@ def changing_room(state=ROOM_STATE, patch_size=0.0, smooth=False):
     world = np.asarray(state["world"], float)
     scene.set_world_map(world) if world.ndim == 3 else scene.set_world(world)
     return scene, ids + ([cube_id] if cube_id is not None else []), cube_id
+
+
+# The five boxes of `movers_room`: (width, depth, height) and where each stands at frame f (1-24),
+# its base's centre. Paths differ (across, along, round, overhead, back along a wall); the floating
+# one passes over the first, whose shadow its own then overlaps, and the round one crosses two others'.
+MOVER_SIZES = [(0.4, 0.4, 0.4), (0.35, 0.35, 0.5), (0.3, 0.3, 0.3), (0.3, 0.3, 0.15), (0.45, 0.3, 0.8)]
+MOVER_FRAMES = (1, 24)
+
+
+def mover_places(frame):
+    """(5, 3): where the five boxes stand at `frame` (their bases' centres, in metres)."""
+    t = (frame - MOVER_FRAMES[0]) / (MOVER_FRAMES[1] - MOVER_FRAMES[0])
+    turn = 2 * np.pi * t
+    return np.array([(-1.2 + 2.4 * t, 0.3, 0.0),
+                     (-0.6, -1.3 + 2.4 * t, 0.0),
+                     (0.4 + 0.7 * np.cos(turn), -0.6 + 0.7 * np.sin(turn), 0.0),
+                     (1.0 - 2.0 * t, 0.2, 1.2),
+                     (1.4, 1.2 - 2.2 * t, 0.0)])
+
+
+def movers_room(frame, patch_size=0.4):
+    """A 4 x 4 x 3 m room lit by a point lamp under its ceiling, with the five boxes of
+    mover_places(frame) (bottomless, as they stand on the floor; the floating one closed).
+    Returns (scene, ids, mover ids)."""
+    scene = engine.Scene()
+    wall = scene.add_material((0.7, 0.7, 0.7))
+    floor = scene.add_material((0.5, 0.55, 0.5))
+    colours = [scene.add_material(c) for c in [(0.8, 0.2, 0.15), (0.2, 0.5, 0.8), (0.8, 0.7, 0.2),
+                                                 (0.6, 0.6, 0.6), (0.3, 0.7, 0.3)]]
+    room = Mesh()
+    room.add_box((0, 0, 1.5), (4, 4, 3), lambda q: floor if all(p[2] == -1 for p in q) else wall, inward=True)
+    ids = [room.add_to(scene, refine="bilinear", patch_size=patch_size)]
+    movers = []
+    for k, (size, place, transform) in enumerate(zip(MOVER_SIZES, mover_places(frame), mover_transforms(frame))):
+        box = Mesh()
+        box.add_box((0, 0, size[2] / 2), size, colours[k])
+        if place[2] == 0:  # standing on the floor: no face in the floor's plane
+            del box.faces[0], box.materials[0]
+        movers.append(box.add_to(scene, refine="bilinear", patch_size=patch_size / 2, transform=transform,
+                                 dynamic=True))
+    scene.add_point_light((0.0, -0.5, 2.7), (25.0, 25.0, 25.0), 0.05)
+    return scene, ids + movers, movers
+
+
+def mover_transforms(frame):
+    """The five boxes' transforms at `frame`, as Solver.set_transform takes them."""
+    out = []
+    for place in mover_places(frame):
+        t = np.eye(4)
+        t[:3, 3] = place
+        out.append(t)
+    return out

@@ -1,5 +1,6 @@
 #include "db_cache.h"
 
+#include "parallel.h"
 #include "visibility.h"
 
 #include <algorithm>
@@ -19,47 +20,91 @@ DbCache::DbCache(double megabytes) {
   if (megabytes > 0) cap_ = std::size_t(megabytes * 1024 * 1024);  // NaN or negative: no cache
 }
 
-DbCache::Origin DbCache::origin_of(const RTCRay& ray) {
-  Origin o;
-  std::memcpy(o.data(), &ray.org_x, sizeof o);
-  return o;
-}
-
-DbCache::Rest DbCache::rest_of(const RTCRay& ray) {
-  Rest r;
-  std::memcpy(r.data(), &ray.dir_x, 3 * sizeof(float));
-  std::memcpy(&r[3], &ray.tfar, sizeof(float));
-  return r;
-}
-
 std::size_t DbCache::kept_bytes(std::size_t entries, std::size_t origins) const {
   return entries * sizeof(Known) + origins * (sizeof(Origin) + sizeof(std::vector<Known>) + kAllocation);
 }
 
-void DbCache::forget() {
-  std::vector<Origin>().swap(origins_);
-  std::vector<std::vector<Known>>().swap(known_);
-  entries_ = 0;
+std::size_t DbCache::kept_bytes() const {
+  std::size_t b = 0;
+  for (const auto& [object, t] : tables_) b += kept_bytes(t.entries, t.origins.size());
+  return b;
 }
 
-void DbCache::own(int object) {
-  if (owner_ == object) return;
-  owner_ = object;
-  forget();
+std::size_t DbCache::entries() const {
+  std::size_t n = 0;
+  for (const auto& [object, t] : tables_) n += t.entries;
+  return n;
 }
 
-void DbCache::find(const RTCRay* rays, unsigned count, Answer* answers) const {
+void DbCache::moved(int object, const Zone& zone) {
+  if (cap_ == 0) return;
+  tables_[object].moved = ++clock_;
+  for (auto& [other, t] : tables_) {
+    if (other == object || t.entries == 0) continue;
+    t.stale.push_back(zone);
+    if (t.stale.size() > kMaxStale) forget_stale(t);
+  }
+}
+
+void DbCache::prepare(int object) {
+  auto table = tables_.find(object);
+  if (table != tables_.end()) forget_stale(table->second);
+}
+
+void DbCache::forget_stale(Table& t) {
+  if (t.stale.empty()) return;
+  // Per origin, in parallel: a table holds a million answers or more.
+  std::vector<std::size_t> left(t.origins.size());
+  parallel_for(0, int(t.origins.size()), 64, [&](int b) {
+    float o[3];
+    std::memcpy(o, t.origins[b].data(), sizeof o);
+    dvec3 origin(o[0], o[1], o[2]);
+    std::vector<Known>& known = t.known[b];
+    std::size_t was = known.size();
+    known.erase(std::remove_if(known.begin(), known.end(),
+                               [&](const Known& k) {
+                                 float r[4];
+                                 std::memcpy(r, k.rest.data(), sizeof r);
+                                 dvec3 dir(r[0], r[1], r[2]);
+                                 for (const Zone& zone : t.stale)
+                                   if (zone.crossed_by(origin, dir, r[3])) return true;
+                                 return false;
+                               }),
+                known.end());
+    if (known.size() < was) known.shrink_to_fit();  // bytes() counts what is held
+    left[b] = known.size();
+  });
+  std::vector<Zone>().swap(t.stale);
+  std::size_t kept = 0, entries = 0;
+  for (std::size_t b = 0; b < t.origins.size(); ++b) {
+    if (left[b] == 0) {
+      std::vector<Known>().swap(t.known[b]);
+      continue;
+    }
+    if (kept < b) t.origins[kept] = t.origins[b], t.known[kept] = std::move(t.known[b]);
+    ++kept;
+    entries += left[b];
+  }
+  t.origins.resize(kept), t.origins.shrink_to_fit();
+  t.known.resize(kept), t.known.shrink_to_fit();
+  t.entries = entries;
+}
+
+void DbCache::find(int object, const RTCRay* rays, unsigned count, Answer* answers) const {
+  std::fill(answers, answers + count, unknown);
+  auto table = tables_.find(object);
+  // Not prepared since another object moved: nothing it holds can be trusted.
+  if (table == tables_.end() || table->second.entries == 0 || !table->second.stale.empty()) return;
+  const Table& t = table->second;
   const std::vector<Known>* bucket = nullptr;
   Origin last{};
   bool looked = false;
   for (unsigned i = 0; i < count; ++i) {
-    answers[i] = unknown;
-    if (entries_ == 0) continue;
     Origin o = origin_of(rays[i]);
     if (!looked || o != last) {  // rays of one receiver come in a row
       looked = true, last = o;
-      auto it = std::lower_bound(origins_.begin(), origins_.end(), o);
-      bucket = it != origins_.end() && *it == o ? &known_[it - origins_.begin()] : nullptr;
+      auto it = std::lower_bound(t.origins.begin(), t.origins.end(), o);
+      bucket = it != t.origins.end() && *it == o ? &t.known[it - t.origins.begin()] : nullptr;
     }
     if (!bucket) continue;
     Rest r = rest_of(rays[i]);
@@ -68,10 +113,12 @@ void DbCache::find(const RTCRay* rays, unsigned count, Answer* answers) const {
   }
 }
 
-void DbCache::stage(const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count, unsigned hits) {
+void DbCache::stage(int object, const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count,
+                    unsigned hits) {
   std::lock_guard<std::mutex> lock(mutex_);
   counts_.hits += hits;
   counts_.misses += count;
+  staging_ = object;
   std::size_t limit = cap_ / 4 / sizeof(Staged);  // a quarter of the cap
   count = unsigned(std::min<std::size_t>(count, limit - std::min(limit, staged_.size())));
   if (staged_.size() + count > staged_.capacity())  // grown by hand: doubling must not pass the cap
@@ -79,6 +126,25 @@ void DbCache::stage(const RTCRay* rays, const unsigned* which, const RTCRay* tra
   for (unsigned k = 0; k < count; ++k) {
     const RTCRay& r = rays[which[k]];
     staged_.push_back({origin_of(r), {rest_of(r), traced[k].tfar < 0 ? blocked : clear}});
+  }
+}
+
+void DbCache::make_room(int keep, std::size_t more, std::size_t more_origins) {
+  std::size_t room = cap_ / 4 * 3;
+  if (kept_bytes() + kept_bytes(more, more_origins) > room)  // what other moves made wrong goes first
+    for (auto& [object, t] : tables_) forget_stale(t);
+  while (kept_bytes() + kept_bytes(more, more_origins) > room) {
+    auto oldest = tables_.end();
+    for (auto it = tables_.begin(); it != tables_.end(); ++it)
+      if (it->first != keep && it->second.entries > 0 &&
+          (oldest == tables_.end() || it->second.moved < oldest->second.moved))
+        oldest = it;
+    if (oldest == tables_.end()) break;
+    oldest->second = Table{{}, {}, 0, oldest->second.moved, {}};
+  }
+  if (kept_bytes() + kept_bytes(more, more_origins) > room) {
+    Table& own = tables_[keep];
+    own = Table{{}, {}, 0, own.moved, {}};
   }
 }
 
@@ -94,50 +160,52 @@ void DbCache::commit() {
   for (std::size_t r = 0; r + 1 < runs.size(); ++r) fresh.push_back(staged_[runs[r]].origin);
   std::sort(fresh.begin(), fresh.end());
   fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
-  // What is kept has three quarters of the cap; full, it starts over with these (at most a quarter
-  // of the cap staged, 32 bytes an answer: kept, 72 at most).
-  if (kept_bytes(entries_ + staged_.size(), origins_.size() + fresh.size()) > cap_ / 4 * 3) forget();
+  // What is kept has three quarters of the cap (at most a quarter of the cap staged, 32 bytes an
+  // answer: kept, 72 at most).
+  make_room(staging_, staged_.size(), fresh.size());
+  Table& t = tables_[staging_];
+  forget_stale(t);  // prepared before the gather, unless the gather asked nothing
 
   // Every origin, each with its answers so far (none, if fresh).
   std::vector<Origin> origins;
   std::vector<std::vector<Known>> known;
-  origins.reserve(origins_.size() + fresh.size());
-  known.reserve(origins_.size() + fresh.size());
-  for (std::size_t i = 0, f = 0; i < origins_.size() || f < fresh.size();) {
-    bool old = i < origins_.size() && (f == fresh.size() || !(fresh[f] < origins_[i]));
-    if (old && f < fresh.size() && fresh[f] == origins_[i]) ++f;
-    origins.push_back(old ? origins_[i] : fresh[f++]);
-    known.push_back(old ? std::move(known_[i++]) : std::vector<Known>());
+  origins.reserve(t.origins.size() + fresh.size());
+  known.reserve(t.origins.size() + fresh.size());
+  for (std::size_t i = 0, f = 0; i < t.origins.size() || f < fresh.size();) {
+    bool old = i < t.origins.size() && (f == fresh.size() || !(fresh[f] < t.origins[i]));
+    if (old && f < fresh.size() && fresh[f] == t.origins[i]) ++f;
+    origins.push_back(old ? t.origins[i] : fresh[f++]);
+    known.push_back(old ? std::move(t.known[i++]) : std::vector<Known>());
   }
-  origins_ = std::move(origins);
-  known_ = std::move(known);
+  t.origins = std::move(origins);
+  t.known = std::move(known);
 
   // The new answers by origin (a counting sort), then each origin's in order, merged in.
-  std::vector<std::size_t> start(origins_.size() + 1, 0);
+  std::vector<std::size_t> start(t.origins.size() + 1, 0);
   std::vector<uint32_t> to(runs.size() - 1);
   for (std::size_t r = 0; r + 1 < runs.size(); ++r) {
-    to[r] = uint32_t(std::lower_bound(origins_.begin(), origins_.end(), staged_[runs[r]].origin) - origins_.begin());
+    to[r] = uint32_t(std::lower_bound(t.origins.begin(), t.origins.end(), staged_[runs[r]].origin) - t.origins.begin());
     start[to[r] + 1] += runs[r + 1] - runs[r];
   }
-  for (std::size_t b = 0; b < origins_.size(); ++b) start[b + 1] += start[b];
+  for (std::size_t b = 0; b < t.origins.size(); ++b) start[b + 1] += start[b];
   std::vector<Known> grouped(staged_.size());
   std::vector<std::size_t> next(start.begin(), start.end() - 1);
   for (std::size_t r = 0; r + 1 < runs.size(); ++r)
     for (std::size_t k = runs[r]; k < runs[r + 1]; ++k) grouped[next[to[r]]++] = staged_[k].known;
   std::vector<Staged>().swap(staged_);
   auto before = [](const Known& a, const Known& b) { return a.rest < b.rest; };
-  for (std::size_t b = 0; b < origins_.size(); ++b) {
+  for (std::size_t b = 0; b < t.origins.size(); ++b) {
     if (start[b] == start[b + 1]) continue;
     auto first = grouped.begin() + start[b], last = grouped.begin() + start[b + 1];
     std::sort(first, last, before);
-    std::vector<Known>& old = known_[b];
+    std::vector<Known>& old = t.known[b];
     std::vector<Known> merged;
     merged.reserve(old.size() + (last - first));
     std::merge(old.begin(), old.end(), first, last, std::back_inserter(merged), before);
     // A ray asked twice in one gather (by two threads) is staged twice, with one answer.
     merged.erase(std::unique(merged.begin(), merged.end(), [](const Known& a, const Known& b) { return a.rest == b.rest; }),
                  merged.end());
-    entries_ += merged.size() - old.size();
+    t.entries += merged.size() - old.size();
     old = std::move(merged);
   }
 }
@@ -149,16 +217,18 @@ DbCache::Counts DbCache::take_counts() {
 }
 
 std::size_t DbCache::bytes() const {
-  std::size_t b = origins_.capacity() * sizeof(Origin) + known_.capacity() * sizeof(std::vector<Known>) +
-                  staged_.capacity() * sizeof(Staged);
-  for (const std::vector<Known>& k : known_) b += k.capacity() * sizeof(Known) + (k.capacity() ? kAllocation : 0);
+  std::size_t b = staged_.capacity() * sizeof(Staged);
+  for (const auto& [object, t] : tables_) {
+    b += t.origins.capacity() * sizeof(Origin) + t.known.capacity() * sizeof(std::vector<Known>);
+    for (const std::vector<Known>& k : t.known) b += k.capacity() * sizeof(Known) + (k.capacity() ? kAllocation : 0);
+  }
   return b;
 }
 
 unsigned DbCache::trace_without(const Visibility& vis, int object, RTCRay* rays, unsigned count,
                                 const Coincident* coincident) {
   Answer known[kMaxRays];
-  find(rays, count, known);
+  find(object, rays, count, known);
   RTCRay missed[kMaxRays];
   unsigned where[kMaxRays], misses = 0;
   for (unsigned i = 0; i < count; ++i) switch (known[i]) {
@@ -167,7 +237,7 @@ unsigned DbCache::trace_without(const Visibility& vis, int object, RTCRay* rays,
       case clear: break;
     }
   vis.occluded_without(object, missed, misses, coincident);
-  if (count > 0) stage(rays, where, missed, misses, count - misses);
+  if (count > 0) stage(object, rays, where, missed, misses, count - misses);
   for (unsigned k = 0; k < misses; ++k) rays[where[k]].tfar = missed[k].tfar;
   return misses;
 }

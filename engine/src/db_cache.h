@@ -18,16 +18,27 @@
 // receiver's rays in a row, so a look-up reads memory the one before brought in. In one table by
 // hash, every look-up would miss the processor's caches.
 //
-// The answers hold only while no other object changes: another object's move forgets them (own).
+// Each moved object has answers of its own: several objects moving at once (a frame of an animation)
+// each ask about their own rays, frame after frame. An answer about the scene without one object
+// holds until another object changes where that other can block the ray: its place before or
+// after (moved, with its Zone). Only those rays go; the rest stay. They go when the object's answers
+// are next asked for (prepare): several objects moving in one update cost one pass over each
+// object's answers, not one per mover.
 // Memory stays under the cap (what is kept and one update's new answers together); when full, the
-// cache starts over with the latest update's answers, the ones the next move most likely asks for.
+// answers other objects' moves made wrong go first, then those of the objects that moved longest
+// ago, and if that is not room enough the cache starts over with the latest update's answers, the
+// ones the next move most likely asks for.
 #pragma once
+
+#include "bounds.h"
 
 #include <embree3/rtcore.h>
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <map>
 #include <mutex>
 #include <vector>
 
@@ -43,15 +54,21 @@ class DbCache {
 
   explicit DbCache(double megabytes);
 
-  // The answers are about rays `object` changed; another object's geometry or visibility just
-  // changed, so those about any other are wrong now and go.
-  void own(int object);
-  // What is known of each ray; read-only, so safe from every thread of a gather while others stage().
-  void find(const RTCRay* rays, unsigned count, Answer* answers) const;
-  // Answers just traced, from any thread of a gather: ray rays[which[k]] as find() was asked, and
-  // traced[k] as it came back; `hits` other rays find() answered. Kept by commit(), once the gather
-  // is over.
-  void stage(const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count, unsigned hits);
+  // `object` changed between zone.before and zone.after (moved, deformed, appeared or vanished): the
+  // answers about the scene without any other object go for the rays it may block in either place.
+  // Its own stay: they are about the scene without it.
+  void moved(int object, const Zone& zone);
+  // Before a gather of `object`'s changed rays: forgets what other objects' moves since made wrong.
+  // Until then find() knows nothing of it.
+  void prepare(int object);
+  // What is known of each ray through the scene without `object`; read-only, so safe from every
+  // thread of a gather while others stage().
+  void find(int object, const RTCRay* rays, unsigned count, Answer* answers) const;
+  // Answers just traced without `object`, from any thread of a gather (one object's at a time):
+  // ray rays[which[k]] as find() was asked, and traced[k] as it came back; `hits` other rays find()
+  // answered. Kept by commit(), once the gather is over.
+  void stage(int object, const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count,
+             unsigned hits);
   void commit();
 
   // Traces `count` rays (kMaxRays at most) against the scene without `object`, as
@@ -64,8 +81,8 @@ class DbCache {
     long long hits = 0, misses = 0;
   };
   Counts take_counts();  // since the last call
-  std::size_t entries() const { return entries_; }
-  std::size_t bytes() const;  // held now
+  std::size_t entries() const;  // answers kept, of all objects
+  std::size_t bytes() const;    // held now
 
  private:
   using Origin = std::array<uint32_t, 3>;  // bits
@@ -78,17 +95,39 @@ class DbCache {
     Origin origin;
     Known known;
   };
-  static Origin origin_of(const RTCRay& ray);
-  static Rest rest_of(const RTCRay& ray);
+  // One object's answers, by ray origin.
+  struct Table {
+    std::vector<Origin> origins;             // sorted
+    std::vector<std::vector<Known>> known;   // per origin, sorted by rest
+    std::size_t entries = 0;
+    long long moved = 0;  // when the object last moved (DbCache::clock_)
+    std::vector<Zone> stale;  // other objects' moves since prepare(): what they may block goes
+  };
+  static constexpr std::size_t kMaxStale = 32;  // moves kept in `stale` before they are applied
+  void forget_stale(Table& t);
+  // Inline: asked once a ray, on every thread of a gather.
+  static Origin origin_of(const RTCRay& ray) {
+    Origin o;
+    std::memcpy(o.data(), &ray.org_x, sizeof o);
+    return o;
+  }
+  static Rest rest_of(const RTCRay& ray) {
+    Rest r;
+    std::memcpy(r.data(), &ray.dir_x, 3 * sizeof(float));
+    std::memcpy(&r[3], &ray.tfar, sizeof(float));
+    return r;
+  }
   std::size_t kept_bytes(std::size_t entries, std::size_t origins) const;
-  void forget();
+  std::size_t kept_bytes() const;  // of all tables
+  // Drops what other moves made wrong, then the tables of the objects that moved longest ago, then
+  // `keep`'s own, until `more` entries at `more_origins` new origins fit what is kept.
+  void make_room(int keep, std::size_t more, std::size_t more_origins);
 
-  std::size_t cap_ = 0;            // bytes: three quarters for what is kept, a quarter for staging
-  std::vector<Origin> origins_;    // sorted
-  std::vector<std::vector<Known>> known_;  // per origin, sorted by rest
-  std::size_t entries_ = 0;
-  int owner_ = -1;
-  std::mutex mutex_;  // guards what stage() writes
+  std::size_t cap_ = 0;  // bytes: three quarters for what is kept, a quarter for staging
+  std::map<int, Table> tables_;
+  long long clock_ = 0;  // moves so far
+  std::mutex mutex_;     // guards what stage() writes
+  int staging_ = -1;     // the object whose answers are staged
   std::vector<Staged> staged_;
   Counts counts_;
 };

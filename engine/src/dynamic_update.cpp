@@ -86,6 +86,13 @@ ReceiverGroups group_receivers(const PatchMesh& mesh, const ClusterTree& tree, d
   return g;
 }
 
+// Where the object is (its mesh) and where `placed` puts it, each within a sphere `margin` wide.
+Zone zone_of(const PatchMesh& mesh, int object, const PlacedObject& placed, double margin) {
+  const ObjectPatches& o = mesh.objects[object];
+  return {bounds_of({mesh.vertices.begin() + o.vertex_begin, mesh.vertices.begin() + o.vertex_end}, margin),
+          bounds_of(placed.at, margin)};
+}
+
 const Source& source_ref(const Source& s) { return s; }
 const Source& source_ref(const Source* s) { return *s; }
 
@@ -349,7 +356,8 @@ void Solver::Impl::change_material(int index, const Material& m) {
 }
 
 void Solver::Impl::place(int object, const MeshDesc& m, const PlacedObject& placed) {
-  if (scene.meshes[object].visible || m.visible) db_cache.own(object);  // a hidden one blocks no ray
+  if (scene.meshes[object].visible || m.visible)  // a hidden one blocks no ray
+    db_cache.moved(object, zone_of(mesh, object, placed, 2 * vis->epsilon()));
   scene.meshes[object] = m;
   place_object(mesh, object, m, placed);
   tree.rebuild(mesh, object);  // as a fresh solve would cluster it there: a refit is off on a curved one
@@ -422,14 +430,12 @@ Zone Solver::Impl::change_object(int object, const MeshDesc& m, const PlacedObje
 }
 
 Solver::Impl::ObjectChange Solver::Impl::begin_change(int object, const MeshDesc& m, const PlacedObject& placed) {
-  const ObjectPatches& o = mesh.objects[object];
-  double margin = 2 * vis->epsilon();
-  Sphere before = bounds_of({mesh.vertices.begin() + o.vertex_begin, mesh.vertices.begin() + o.vertex_end}, margin);
-  Sphere after = bounds_of(placed.at, margin);
-  ObjectChange change(object, m, placed, o, Zone{before, after});
+  ObjectChange change(object, m, placed, mesh.objects[object], zone_of(mesh, object, placed, 2 * vis->epsilon()));
+  const Zone& zone = change.zone;
   for (int node : shooters) {
     const ClusterNode& n = tree.nodes[node];
-    if (!shoots_from(object, node) && (overlap({n.centroid, n.radius}, before) || overlap({n.centroid, n.radius}, after)))
+    if (!shoots_from(object, node) &&
+        (overlap({n.centroid, n.radius}, zone.before) || overlap({n.centroid, n.radius}, zone.after)))
       change.near_nodes.push_back(node);
   }
   std::sort(change.near_nodes.begin(), change.near_nodes.end());
@@ -533,6 +539,7 @@ void Solver::Impl::send_again(ObjectChange& change) {
 // most of a room's sources pass near no moved object for most receivers.
 void Solver::Impl::gather_changed_rays(ObjectChange& change) {
   ReceiverGroups groups = group_receivers(mesh, tree, kGroupRadius * settings.shooter_size_relative * mesh.diagonal);
+  db_cache.prepare(change.object);
   ChangedRays changed(*vis, change.object, change.zone, db_cache);
   auto gather_changed = [&](const std::vector<Source>& others) {
     std::vector<std::vector<int>> reaching(groups.bounds.size());  // per group, sources by index

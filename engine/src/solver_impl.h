@@ -56,7 +56,7 @@ struct Solver::Impl {
   void fit_to_mesh(int first_object);
   mutable ShotCache shot_cache;  // filled as shots are built
   ShotScene shot_scene() const { return {mesh, tree, vis.get(), &shot_cache}; }
-  DbCache db_cache;              // of the object that moved last (dynamic_update.cpp)
+  DbCache db_cache;              // per moved object (dynamic_update.cpp)
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
   std::vector<dvec3> reflected_front, reflected_back;  // the part of it reflected light brought
