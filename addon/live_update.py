@@ -357,7 +357,7 @@ def _end(scene, job, base, info):
     # the engine may count a point once per change (lamp + object): at most all of them
     touched = min(points, int(st.get("touched_points", points))) if job.incremental else points
     info.update(mode="incremental" if job.incremental else "full",
-                reason=None if job.incremental else info["reason"],
+                reason=None if job.incremental else (job.rebuild_reason or info["reason"]),
                 changes=len(job.calls) if job.incremental else None,
                 seconds_solve=job.seconds, seconds_write=t3 - t2, seconds_total=t3 - info["start"],
                 touched_points=touched, touched_points_engine=int(st.get("touched_points", -1)),

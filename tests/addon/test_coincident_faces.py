@@ -36,3 +36,22 @@ def test_five_stacked_quads_bake_as_one(addon):
     assert "'Panel': faces stacked exactly on its own" in scene.radiosity.last_warnings
     np.testing.assert_allclose(floor_five, floor_one, rtol=0.005)
     np.testing.assert_allclose(panel_five, np.tile(panel_one, (5, 1)), rtol=0.005)
+
+
+def test_moving_a_face_stacked_on_another_objects_starts_a_new_solver_and_says_why(addon):
+    """A copy of the floor lying exactly on it, both static, is merged with it across objects; the
+    engine cannot move it incrementally, so live update solves afresh, and its record says the engine refused
+    the change (the reason the panel shows), not only the console."""
+    live = addon.live_update
+    scene, _ = bake_floor_and_panel(1)
+    decal = bpy.data.meshes.new("Decal")
+    decal.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    ob = bpy.data.objects.new("Decal", decal)
+    scene.collection.objects.link(ob)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    ob.location.x = 0.3
+    bpy.context.view_layer.update()
+    info = live.last_sync[scene.name]
+    assert info["mode"] == "full", info
+    assert "refused" in (info["reason"] or ""), info
