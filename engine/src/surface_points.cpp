@@ -170,6 +170,9 @@ bool gathers_reflected(const PatchMesh& mesh, const std::vector<dvec3>& reflecte
   return true;
 }
 
+// A patch twisted less than this part of its size is flat.
+constexpr double kFlat = 1e-6;
+
 // How near a patch corner, in the patch's (u, v), a point takes after the corner's receiving point.
 constexpr double kCornerReach = 0.01;
 // Points whose direct light one batch of rays gathers: a lamp's shadow rays go to Embree together.
@@ -220,13 +223,17 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
       int c = (on.u < 0.5 ? (on.v < 0.5 ? 0 : 3) : (on.v < 0.5 ? 1 : 2));
       double off = std::max(std::min(on.u, 1 - on.u), std::min(on.v, 1 - on.v));
       double onto = std::max(0.0, 1.0 - off / kCornerReach);
-      gathers[i] = onto == 0 && gathers_reflected(s.mesh, s.reflected_front, s.vis.get(), patch, y, n);
-      dvec3 reflected = gathers[i] ? dvec3(0.0) : reflected_at(s.mesh, s.reflected_front, s.vis.get(), patch, w, y, n);
       // A point inside a twisted patch (a curved surface's) may lie behind the two triangles Embree
       // traces for it: lifted off it as far as it lies off them, its rays leave in front of them.
       dvec3 corners[4];
       for (int k = 0; k < 4; ++k) corners[k] = s.mesh.vertices[patch.vertex[k]];
-      double lift = bilinear_lift(bilinear_twist(corners, patch.normal), on.u, on.v);
+      double twist = bilinear_twist(corners, patch.normal);
+      double lift = bilinear_lift(twist, on.u, on.v);
+      // Only on a flat patch: a point of a curved one would see its own patch, which its corners
+      // take no light from.
+      gathers[i] = onto == 0 && !(twist > kFlat * std::sqrt(patch.area)) &&
+                   gathers_reflected(s.mesh, s.reflected_front, s.vis.get(), patch, y, n);
+      dvec3 reflected = gathers[i] ? dvec3(0.0) : reflected_at(s.mesh, s.reflected_front, s.vis.get(), patch, w, y, n);
       const ReceiverPoint& corner = s.mesh.points[patch.point[c]];
       at[i] = corner;  // its object's enclosure and its share of reflected light, for gathers
       at[i].position = y + onto * (corner.position - y) + lift * n;
