@@ -230,8 +230,9 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
       double twist = bilinear_twist(corners, patch.normal);
       double lift = bilinear_lift(twist, on.u, on.v);
       // Only on a flat patch: a point of a curved one would see its own patch, which its corners
-      // take no light from.
-      gathers[i] = onto == 0 && !(twist > kFlat * std::sqrt(patch.area)) &&
+      // take no light from. And only with Exact Contact Light: gathered without it, the light of a
+      // patch across a shadow's edge right beside the point is interpolated, as far off as its corners.
+      gathers[i] = s.settings.exact_near_direct && onto == 0 && !(twist > kFlat * std::sqrt(patch.area)) &&
                    gathers_reflected(s.mesh, s.reflected_front, s.vis.get(), patch, y, n);
       dvec3 reflected = gathers[i] ? dvec3(0.0) : reflected_at(s.mesh, s.reflected_front, s.vis.get(), patch, w, y, n);
       const ReceiverPoint& corner = s.mesh.points[patch.point[c]];
