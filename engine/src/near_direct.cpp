@@ -225,15 +225,15 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
 
 std::vector<dvec3> Solver::Impl::near_direct_gain(const std::vector<ReceiverPoint>& at, int first) const {
   prepare_near_direct({});
-  std::vector<dvec3> none(at.size(), dvec3(0.0));
-  if (!near_direct) return none;
+  std::vector<dvec3> gained(at.size(), dvec3(0.0));
+  if (!near_direct) return gained;
   std::vector<const ReceiverPoint*> points;
   std::vector<int> slots;
   for (size_t k = 0; k < at.size(); ++k)
     if (at[k].normal != dvec3(0.0)) points.push_back(&at[k]), slots.push_back(first + int(k));
   NearGather g = gather_near(points, slots);
-  for (size_t j = 0; j < slots.size(); ++j) none[slots[j] - first] = g.gained[j];
-  return none;
+  for (size_t j = 0; j < slots.size(); ++j) gained[slots[j] - first] = g.gained[j];
+  return gained;
 }
 
 Solver::Impl::NearGather Solver::Impl::gather_near(const std::vector<const ReceiverPoint*>& at,

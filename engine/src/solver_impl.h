@@ -198,6 +198,8 @@ struct Solver::Impl {
   // What points `at` (not receiving points: each gathers under slot first + k) gain as a reported
   // point does; zero without exact_near_direct.
   std::vector<dvec3> near_direct_gain(const std::vector<ReceiverPoint>& at, int first) const;
+  // For points `at`, each gathering under slots[k]: the patches near each, how far they reach from
+  // it, and what it gains (the shared work of the two above).
   struct NearGather {
     std::vector<dvec3> gained;
     std::vector<std::vector<int>> patches;
