@@ -254,7 +254,7 @@ SAMPLE_BOUNDS = {
     ("subsurf_room", None): 0.02,       # 1.22%; Blob 3.22% (Cycles shades level 2's facets, we the limit)
     # 2.25%: the shelf against the wall (4.5%) reads low by the wall, whose light just above the
     # shelf comes mostly reflected and is interpolated from the wall's patch corners there (the
-    # texels gather it from the solution, which holds it so); at high, whose patches are finer, 1.66%.
+    # texels gather it from the solution, which holds it so); at high, whose patches are finer, 1.43%.
     ("interior_room", None): 0.024,
 }
 
