@@ -6,8 +6,10 @@ For each sample scene of tests/cycles_reference/lightmap_reference.py (its Cycle
 8,192 samples, about 0.7% noise; the animated room at frame 1) and each preset: the add-on bakes with lightmaps into
 the reference's RadiosityUV maps and image sizes (lightmap_reference.open_with_reference), and the
 relative RMS over the covered texels is measured, for the scene and per object. Writes
-bench/results/lightmaps_vs_cycles.csv and .md (tables.py).
+bench/results/lightmaps_vs_cycles.csv and .md (tables.py); rows of scenes and presets it did not
+measure this time are kept from the CSV.
 """
+import csv
 import os
 import sys
 import time
@@ -42,13 +44,26 @@ def measure(scene_name, frame, preset):
     return row
 
 
+def kept_rows(path, measured):
+    """The CSV's rows at `path` with those of the (scene, preset) pairs just measured replaced, in
+    their place; pairs new to it after them."""
+    fresh = {(r["scene"], r["preset"]): r for r in measured}
+    rows = []
+    if os.path.exists(path):
+        with open(path, newline="") as f:
+            rows = [fresh.pop((r["scene"], r["preset"]), r) for r in csv.DictReader(f)]
+    return rows + list(fresh.values())
+
+
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     presets = (argv[argv.index("--presets") + 1] if "--presets" in argv else "default,high").split(",")
     scenes = argv[argv.index("--scenes") + 1].split(",") if "--scenes" in argv else list(lightmap_reference.SAMPLE_SCENES)
     load_package().register()
     rows = [measure(name, lightmap_reference.SAMPLE_SCENES[name], preset) for name in scenes for preset in presets]
-    tables.write(tables.path_for("lightmaps_vs_cycles"), list(rows[0]), rows, "Lightmaps against Cycles' image bake",
+    path = tables.path_for("lightmaps_vs_cycles")
+    rows = kept_rows(path, rows)
+    tables.write(path, list(rows[0]), rows, "Lightmaps against Cycles' image bake",
                  [("scene", "scene", None), ("preset", "preset", None), ("seconds", "bake with lightmaps", tables.seconds),
                   ("texels", "texels", tables.count), ("rms", "relative RMS", tables.percent),
                   ("objects", "per object", None)],
