@@ -86,6 +86,18 @@ def test_esc_stops_the_update_and_leaves_the_colours(report):
     assert after["rms_vs_fresh"] < BOUND                # settled: a fresh bake's, as test_live_update's
 
 
+def start_held_update(live, scene, monkeypatch):
+    """Frame 2's update started in the worker as the UI's frame handler starts it (play), held before
+    it solves until the returned event is set."""
+    held = threading.Event()
+    solve = live._solve
+    monkeypatch.setattr(live, "_solve", lambda *args: (held.wait(), solve(*args)))
+    with live.suspended():
+        scene.frame_set(2)
+    assert live.play(scene, frame_change=True)
+    return held
+
+
 def test_a_frame_change_while_one_runs_is_taken_by_the_next_update(addon, monkeypatch):
     """What the UI's frame handler does (play(frame_change=True)), here where it can be held: the
     update shoots to its stop with no frame budget; a frame change that comes meanwhile is not queued
@@ -94,12 +106,7 @@ def test_a_frame_change_while_one_runs_is_taken_by_the_next_update(addon, monkey
     scene = open_blend("animated_room")
     scene.radiosity.live_update = True
     scene.frame_set(1)                                   # background mode: solved before it returns
-    held = threading.Event()
-    solve = live._solve
-    monkeypatch.setattr(live, "_solve", lambda *args: (held.wait(), solve(*args)))
-    with live.suspended():
-        scene.frame_set(2)
-    assert live.play(scene, frame_change=True)
+    held = start_held_update(live, scene, monkeypatch)
     with live.suspended():
         scene.frame_set(3)
     assert not live.play(scene, frame_change=True)       # one runs: not queued
@@ -126,12 +133,7 @@ def test_an_update_cancelled_before_it_sends_anything_keeps_the_solver(addon, mo
     scene.frame_set(1)
     before = read(scene)
     base = live.live_jobs[scene.name]
-    held = threading.Event()
-    solve = live._solve
-    monkeypatch.setattr(live, "_solve", lambda *args: (held.wait(), solve(*args)))
-    with live.suspended():
-        scene.frame_set(2)
-    assert live.play(scene, frame_change=True)
+    held = start_held_update(live, scene, monkeypatch)
     assert live.progress(scene)["frame"] == 2
     assert live.cancel(scene) and live.progress(scene)["cancelling"]
     held.set()
@@ -141,6 +143,6 @@ def test_an_update_cancelled_before_it_sends_anything_keeps_the_solver(addon, mo
     assert (info["frame"], info["mode"]) == (2, "cancelled"), info
     assert live.live_jobs[scene.name] is base
     assert all(np.array_equal(before[k], v) for k, v in read(scene).items())
-    monkeypatch.setattr(live, "_solve", solve)
+    monkeypatch.undo()                                   # the worker solves unheld again
     scene.frame_set(3)
     assert live.last_sync[scene.name]["mode"] == "incremental"
