@@ -3,11 +3,14 @@
     blender -b --factory-startup --python bench/pictures.py [-- OUT.png [SPP]]
 
 For each sample scene (the animated room at its first frame, baked, and at its last, where Live
-Update took it incrementally), three pictures from the scene camera, Standard view transform:
+Update took it incrementally), four pictures from the scene camera, Standard view transform:
 - the default preset's `Radiosity` attribute as Workbench shows it (flat: the colours as stored).
   It holds a value per corner of the user's mesh, as Cycles' vertex bake does, and Blender
   interpolates it across each face: a room of six quads shows its corners' light only;
 - the solver's own patches (Solver.refined), what the attribute would show on a mesh that fine;
+- the default preset's lightmaps (docs/lightmaps.md), each mesh an Emission shader (strength 1)
+  reading its `<object>_Radiosity` image in `RadiosityUV`, rendered by Cycles with the lamps
+  hidden and the world black: the texels' shadows and hot spots inside the faces;
 - Cycles' path-traced render (SPP samples, DESIGN.md section 4 settings): per pixel, noisy.
 Writes bench/results/pictures.png.
 """
@@ -31,7 +34,8 @@ args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 OUT = args[0] if args else os.path.join(HERE, "results", "pictures.png")
 SPP = int(args[1]) if len(args) > 1 else 1024
 SIZE = 200
-SHOTS = [("cornell_box", None), ("subsurf_room", None), ("animated_room", 1), ("animated_room", 24)]
+SHOTS = [("cornell_box", None), ("subsurf_room", None), ("interior_room", None), ("animated_room", 1),
+         ("animated_room", 24)]
 
 
 def rendered(scene, engine):
@@ -98,6 +102,66 @@ def patches(scene):
         scene.radiosity.live_update = live
 
 
+def lightmaps(scene):
+    """Cycles showing each mesh's lightmap as an emitter: the texels are all the light there is."""
+    lightmap = load_package().lightmap
+    live = scene.radiosity.live_update
+    scene.radiosity.live_update = False   # else it would solve the scene these emitters make
+    meshes = [ob for ob in scene.objects if ob.type == 'MESH']
+    kept = {ob.name: (list(ob.data.materials), ob.hide_render) for ob in meshes}
+    lamps = [ob for ob in scene.objects if ob.type == 'LIGHT' and not ob.hide_render]
+    world = scene.world
+    made = []
+    try:
+        scene.world = bpy.data.worlds.new("black")
+        scene.world.color = (0, 0, 0)
+        for ob in lamps:
+            ob.hide_render = True
+        for ob in meshes:
+            image = bpy.data.images.get(lightmap.image_name(ob.name))
+            if image is None:             # not lit, no lightmap: not shown
+                ob.hide_render = True
+                continue
+            mat = bpy.data.materials.new(ob.name + " lightmap")
+            made.append(mat)
+            mat.use_nodes = True
+            nodes, links = mat.node_tree.nodes, mat.node_tree.links
+            nodes.clear()
+            uv = nodes.new('ShaderNodeUVMap')
+            uv.uv_map = "RadiosityUV"
+            tex = nodes.new('ShaderNodeTexImage')
+            tex.image = image
+            emit = nodes.new('ShaderNodeEmission')
+            emit.inputs["Strength"].default_value = 1.0
+            out = nodes.new('ShaderNodeOutputMaterial')
+            links.new(uv.outputs["UV"], tex.inputs["Vector"])
+            links.new(tex.outputs["Color"], emit.inputs["Color"])
+            links.new(emit.outputs["Emission"], out.inputs["Surface"])
+            slots = ob.data.materials      # each slot replaced in place: the faces' indices stay
+            if len(slots) == 0:
+                slots.append(mat)
+            for i in range(len(slots)):
+                slots[i] = mat
+        cycles_settings.unbiased(scene, 16, 0, 1)   # emission seen directly: nothing to bounce
+        return rendered(scene, 'CYCLES')
+    finally:
+        for ob in meshes:
+            materials, hidden = kept[ob.name]
+            slots = ob.data.materials
+            if len(materials) == 0 and len(slots) == 1:
+                slots.pop()
+            for i, m in enumerate(materials):
+                slots[i] = m
+            ob.hide_render = hidden
+        for ob in lamps:
+            ob.hide_render = False
+        black, scene.world = scene.world, world
+        bpy.data.worlds.remove(black)
+        for mat in made:
+            bpy.data.materials.remove(mat)
+        scene.radiosity.live_update = live
+
+
 def cycles(scene):
     cycles_settings.unbiased(scene, SPP, 64, 1)   # seed 1, as the accuracy bench's Cycles rows
     return rendered(scene, 'CYCLES')
@@ -112,6 +176,8 @@ def main():
             bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_blends", name + ".blend"))
             scene = bpy.context.scene
             scene.radiosity.preset = 'DEFAULT'
+            scene.radiosity.lightmaps = True
+            scene.radiosity.display_offered = True   # else the bake turns Show Bake on: Cycles would show it
             if frame is not None:
                 scene.frame_set(frame)
             assert bpy.ops.radiosity.bake() == {'FINISHED'}
@@ -122,10 +188,10 @@ def main():
             assert load_package().live_update.last_sync[scene.name]["mode"] == "incremental"
         label = name.replace("_", " ") + (f", frame {frame}" if frame is not None else "")
         tiles.append((label, [(ours(scene), "ours: the attribute"), (patches(scene), "ours: the patches"),
-                              (cycles(scene), f"Cycles, {SPP} spp")]))
+                              (lightmaps(scene), "ours: the lightmap"), (cycles(scene), f"Cycles, {SPP} spp")]))
         print(label, "done", flush=True)
     pad, top = 12, 34
-    c = Canvas(3 * SIZE + 4 * pad, len(tiles) * (SIZE + top + pad) + pad)
+    c = Canvas(4 * SIZE + 5 * pad, len(tiles) * (SIZE + top + pad) + pad)
     for i, (label, pictures) in enumerate(tiles):
         y = pad + i * (SIZE + top + pad)
         c.text(pad, y, label, (0, 0, 0), 2)
