@@ -215,39 +215,18 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
   }
   NearDirect& nd = *near_direct;
   std::vector<int> wanted;
-  std::vector<const ReceiverPoint*> at;
   for (int i : points)
     if (!hidden_point[i] && mesh.points[i].normal != dvec3(0.0) && nd.points.try_emplace(i).second)
-      wanted.push_back(i), at.push_back(&mesh.points[i]);
-  NearGather g = gather_near(at, wanted);
-  for (size_t k = 0; k < wanted.size(); ++k) nd.points[wanted[k]] = {g.gained[k], std::move(g.patches[k]), g.reach[k]};
-}
+      wanted.push_back(i);
+  int count = int(wanted.size());
 
-std::vector<dvec3> Solver::Impl::near_direct_gain(const std::vector<ReceiverPoint>& at, int first) const {
-  prepare_near_direct({});
-  std::vector<dvec3> gained(at.size(), dvec3(0.0));
-  if (!near_direct) return gained;
-  std::vector<const ReceiverPoint*> points;
-  std::vector<int> slots;
-  for (size_t k = 0; k < at.size(); ++k)
-    if (at[k].normal != dvec3(0.0)) points.push_back(&at[k]), slots.push_back(first + int(k));
-  NearGather g = gather_near(points, slots);
-  for (size_t j = 0; j < slots.size(); ++j) gained[slots[j] - first] = g.gained[j];
-  return gained;
-}
-
-Solver::Impl::NearGather Solver::Impl::gather_near(const std::vector<const ReceiverPoint*>& at,
-                                                   const std::vector<int>& slots) const {
-  NearDirect& nd = *near_direct;
-  int count = int(at.size());
-  NearGather g;
   // Per point, the patches whose sphere comes within near_factor of their radius of it. A node
   // holds patches no wider than its diameter, so one farther than (3 + 2 near_factor) radii holds none.
   double near = settings.near_factor;
-  g.patches.assign(count, {});
-  g.reach.assign(count, 0.0);
+  std::vector<std::vector<int>> patches(count);
+  std::vector<double> reach(count, 0.0);
   parallel_for(0, count, 16, [&](int k) {
-    const dvec3& x = at[k]->position;
+    const dvec3& x = mesh.points[wanted[k]].position;
     std::vector<int> stack(tree.roots.begin(), tree.roots.end());
     while (!stack.empty()) {
       const ClusterNode& n = tree.nodes[stack.back()];
@@ -256,34 +235,35 @@ Solver::Impl::NearGather Solver::Impl::gather_near(const std::vector<const Recei
       if (n.left >= 0) {
         if (d <= (3 + 2 * near) * n.radius) stack.push_back(n.left), stack.push_back(n.right);
       } else if (d <= (1 + near) * n.radius) {
-        g.patches[k].push_back(tree.order[n.begin]);
-        g.reach[k] = std::max(g.reach[k], d + n.radius);
+        patches[k].push_back(tree.order[n.begin]);
+        reach[k] = std::max(reach[k], d + n.radius);
       }
     }
   });
-  for (const std::vector<int>& near_patches : g.patches)
+  for (const std::vector<int>& near_patches : patches)
     for (int q : near_patches)
       for (int c : mesh.patches[q].point) nd.direct.try_emplace(c, direct_now(c));
   // Cutting patches into cells fills the shot cache: one thread. Gathering only reads.
   std::vector<std::vector<const NearDetail*>> details(count);
   for (int k = 0; k < count; ++k)
-    for (int q : g.patches[k])
+    for (int q : patches[k])
       if (const NearDetail* d = near_detail(q)) details[k].push_back(d);
-  g.gained.assign(count, dvec3(0.0));
+  std::vector<dvec3> gained(count, dvec3(0.0));
   parallel_for(0, count, 4, [&](int k) {
+    int i = wanted[k];
     for (const NearDetail* d : details[k]) {
       dvec3 h[2] = {dvec3(0.0), dvec3(0.0)};
-      OcclusionBatch batch(*vis, &h[0], &h[1], slots[k]);
-      gather(d->interpolated, slots[k], *at[k], batch);
-      gather(d->exact, slots[k], *at[k], batch);
+      OcclusionBatch batch(*vis, &h[0], &h[1], i);
+      gather(d->interpolated, i, mesh.points[i], batch);
+      gather(d->exact, i, mesh.points[i], batch);
       batch.flush();
-      g.gained[k] += h[0];
+      gained[k] += h[0];
     }
   });
+  for (int k = 0; k < count; ++k) nd.points[wanted[k]] = {gained[k], std::move(patches[k]), reach[k]};
   for (const std::vector<const NearDetail*>& near_details : details)
     for (const NearDetail* d : near_details)
       if (!d->memo.empty()) decltype(d->memo)().swap(d->memo);
-  return g;
 }
 
 dvec3 Solver::Impl::near_direct_correction(int i) const {

@@ -195,17 +195,6 @@ struct Solver::Impl {
   mutable std::shared_ptr<NearDirect> near_direct;  // shared_ptr: NearDirect is complete only there
   dvec3 near_direct_correction(int point) const;
   void prepare_near_direct(const std::vector<int>& points) const;  // for many points, on all cores
-  // What points `at` (not receiving points: each gathers under slot first + k) gain as a reported
-  // point does; zero without exact_near_direct.
-  std::vector<dvec3> near_direct_gain(const std::vector<ReceiverPoint>& at, int first) const;
-  // For points `at`, each gathering under slots[k]: the patches near each, how far they reach from
-  // it, and what it gains (the shared work of the two above).
-  struct NearGather {
-    std::vector<dvec3> gained;
-    std::vector<std::vector<int>> patches;
-    std::vector<double> reach;
-  };
-  NearGather gather_near(const std::vector<const ReceiverPoint*>& at, const std::vector<int>& slots) const;
   const NearDetail* near_detail(int patch) const;  // null if it needs none
   std::array<dvec3, 2> direct_at(const dvec3& y, const dvec3& normal) const;  // H per side
   // H per side at y from `sources` (a point that is no receiving point's).

@@ -2,10 +2,8 @@
 //
 // Interpolating a patch's corners smooths away every shadow and hot spot smaller than the patch. So
 // a point gathers its own direct light (lamps, sky, emitters, with its own visibility), at the
-// solve's direct sampling; the reflected light, which changes slowly across most of a surface, is the
+// solve's direct sampling; the reflected light, which changes slowly across a surface, is the
 // solution's, interpolated within the patch that holds the point from the corners the point sees.
-// Where it changes fast across a patch (beside a junction, where the corners on the junction line
-// read low) the point gathers it itself, as a reported point does.
 #include "solver_impl.h"
 
 #include <algorithm>
@@ -143,36 +141,6 @@ dvec3 reflected_at(const PatchMesh& mesh, const std::vector<dvec3>& reflected, c
   return weight > 0 ? seen / weight : dvec3(0.0);
 }
 
-// A patch's corners' reflected light differs by more than this part of the brightest: a point in
-// it gathers its reflected light itself rather than interpolate it (gathers_reflected).
-constexpr double kGatherContrast = 0.25;
-
-// Whether point y (normal n) of `patch` gathers its reflected light from the solution's shots, and
-// the direct light its near surroundings reflect as a reported point does (near_direct.cpp), rather
-// than interpolate its corners. Where a surface meets another (a shelf on a wall, a table's leg on
-// the floor) the corners on the junction read low and the light beside them changes faster than
-// the patch resolves: interpolated, the texels there read 10-25% low. A point shut off from some
-// of its corners (under a box standing across its patch) interpolates those it sees (reflected_at):
-// what it would gather there is the little the patches across the box's foot leak into the box.
-bool gathers_reflected(const PatchMesh& mesh, const std::vector<dvec3>& reflected, const Visibility* vis,
-                       const Patch& patch, const dvec3& y, const dvec3& n) {
-  double lo = INFINITY, hi = 0.0;
-  for (int c = 0; c < 4; ++c) {
-    const dvec3& r = reflected[patch.point[c]];
-    double sum = r.x + r.y + r.z;
-    lo = std::min(lo, sum), hi = std::max(hi, sum);
-  }
-  if (!(hi - lo > kGatherContrast * hi) || !vis) return false;
-  for (int c = 0; c < 4; ++c) {
-    const ReceiverPoint& p = mesh.points[patch.point[c]];
-    if (!vis->connected(y, n, p.position, glm::length(p.normal) > 0 ? p.normal : n)) return false;
-  }
-  return true;
-}
-
-// A patch twisted less than this part of its size is flat.
-constexpr double kFlat = 1e-6;
-
 // How near a patch corner, in the patch's (u, v), a point takes after the corner's receiving point.
 constexpr double kCornerReach = 0.01;
 // Points whose direct light one batch of rays gathers: a lamp's shadow rays go to Embree together.
@@ -202,7 +170,6 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
     // Per point: where it lies and what it reflects, then its direct light. Its light so far is
     // emission + reflectance x reflected; `at` is where it gathers (normal zero: on no patch).
     std::vector<ReceiverPoint> at(count);
-    std::vector<char> gathers(count, 0);
     std::vector<dvec3> reflectance(count, dvec3(0.0)), light(count, dvec3(0.0));
     parallel_for(0, count, 64, [&](int i) {
       dvec3 x = dvec3(desc.transform * glm::dvec4(positions[i], 1.0)) - s.mesh.origin;
@@ -218,6 +185,7 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
         reflectance[i] += w[c] * s.mesh.reflectance[4 * q + c];
       }
       dvec3 n = glm::length(normal) > 0 ? glm::normalize(normal) : patch.normal;
+      dvec3 reflected = reflected_at(s.mesh, s.reflected_front, s.vis.get(), patch, w, y, n);
       // Right by a patch corner the point slides onto the corner's receiving point, which is nudged
       // into its patches (patch_mesh.cpp): at a face corner a texel then reads what the corner does.
       int c = (on.u < 0.5 ? (on.v < 0.5 ? 0 : 3) : (on.v < 0.5 ? 1 : 2));
@@ -227,26 +195,14 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
       // traces for it: lifted off it as far as it lies off them, its rays leave in front of them.
       dvec3 corners[4];
       for (int k = 0; k < 4; ++k) corners[k] = s.mesh.vertices[patch.vertex[k]];
-      double twist = bilinear_twist(corners, patch.normal);
-      double lift = bilinear_lift(twist, on.u, on.v);
-      // Only on a flat patch: a point of a curved one would see its own patch, which its corners
-      // take no light from. And only with Exact Contact Light: gathered without it, the light of a
-      // patch across a shadow's edge right beside the point is interpolated, as far off as its corners.
-      gathers[i] = s.settings.exact_near_direct && onto == 0 && !(twist > kFlat * std::sqrt(patch.area)) &&
-                   gathers_reflected(s.mesh, s.reflected_front, s.vis.get(), patch, y, n);
-      dvec3 reflected = gathers[i] ? dvec3(0.0) : reflected_at(s.mesh, s.reflected_front, s.vis.get(), patch, w, y, n);
-      const ReceiverPoint& corner = s.mesh.points[patch.point[c]];
-      at[i] = corner;  // its object's enclosure and its share of reflected light, for gathers
-      at[i].position = y + onto * (corner.position - y) + lift * n;
+      double lift = bilinear_lift(bilinear_twist(corners, patch.normal), on.u, on.v);
+      at[i].position = y + onto * (s.mesh.points[patch.point[c]].position - y) + lift * n;
       at[i].normal = n;
       light[i] = emission + reflectance[i] * reflected;
     });
     // Direct light, a block of points to a batch of rays: each gathers under an index past every
     // receiving point's, so no patch takes it for one of its corners (as Impl::light_at).
-    std::vector<Source> reflected_sources;
-    if (s.injected && std::find(gathers.begin(), gathers.end(), 1) != gathers.end())
-      reflected_sources = s.reflected_sources();
-    if (!sources.empty() || !reflected_sources.empty()) {
+    if (!sources.empty()) {
       int base = int(s.mesh.points.size());
       parallel_for(0, (count + kBlock - 1) / kBlock, 1, [&](int b) {
         int first = b * kBlock, last = std::min(count, first + kBlock);
@@ -254,22 +210,12 @@ std::vector<float> Solver::surface_radiance(int object, const std::vector<int>& 
         {
           OcclusionBatch batch(*s.vis, front.data(), back.data(), base + first);
           for (int i = first; i < last; ++i)
-            if (at[i].normal != dvec3(0.0)) {
+            if (at[i].normal != dvec3(0.0))
               for (const Source& source : sources) source.gather(base + i, at[i], batch);
-              if (gathers[i])
-                for (const Source& source : reflected_sources) source.gather(base + i, at[i], batch);
-            }
         }  // flushed
         for (int i = first; i < last; ++i) light[i] += reflectance[i] * front[i - first];
       });
     }
-    // What the gathering points' near surroundings reflect of the direct light, worked out where it lands.
-    std::vector<int> gathering;
-    std::vector<ReceiverPoint> gathering_at;
-    for (int i = 0; i < count; ++i)
-      if (gathers[i]) gathering.push_back(i), gathering_at.push_back(at[i]);
-    std::vector<dvec3> gained = s.near_direct_gain(gathering_at, int(s.mesh.points.size()));
-    for (size_t k = 0; k < gathering.size(); ++k) light[gathering[k]] += reflectance[gathering[k]] * gained[k];
     std::vector<float> out(3 * size_t(count), 0.0f);
     for (int i = 0; i < count; ++i) {
       dvec3 b = glm::max(light[i], dvec3(0.0));  // round-off negatives
