@@ -165,9 +165,7 @@ def main():
                  "are their evaluation (rasterising, the engine's surface_radiance, footprint averaging, "
                  "padding) and writing the images. Peak memory is the Blender process's resident peak "
                  "(ru_maxrss) over the run; with several presets in one run a later row's peak includes the "
-                 "earlier bakes'. `boxes` at default does not finish in 10 minutes: "
-                 "its time goes to the engine's surface_radiance on each texel (lightmap.texels), not to memory: "
-                 "to Exact Contact Light's gathers of reflected light (exact_near_direct; with it off, 27 s).")
+                 "earlier bakes'.")
 
 
 if __name__ == "__main__":
