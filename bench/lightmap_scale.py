@@ -12,7 +12,6 @@ process's peak resident memory (ru_maxrss, which only grows: one case per run, a
 presets the later rows' peak includes the earlier bakes'). Writes bench/results/lightmap_scale.csv
 and .md (tables.py); rows of cases and presets not run this time are kept from the CSV.
 """
-import csv
 import os
 import resource
 import sys
@@ -133,16 +132,6 @@ def measure(pkg, case, preset):
     return row
 
 
-def kept_rows(path, measured):
-    """The CSV's rows at `path` with those of the (case, preset) pairs just measured replaced, in
-    their place; pairs new to it after them."""
-    fresh = {(r["case"], r["preset"]): r for r in measured}
-    rows = []
-    if os.path.exists(path):
-        with open(path, newline="") as f:
-            rows = [fresh.pop((r["case"], r["preset"]), r) for r in csv.DictReader(f)]
-    return rows + list(fresh.values())
-
 
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
@@ -152,7 +141,7 @@ def main():
     pkg.register()
     rows = [measure(pkg, case, preset) for preset in presets]
     path = tables.path_for("lightmap_scale")
-    rows = kept_rows(path, rows)
+    rows = tables.kept_rows(path, rows, ("case", "preset"))
     tables.write(path, list(rows[0]), rows, "Lightmaps at scale: time and peak memory",
                  [("case", "case", None), ("preset", "preset", None), ("objects", "mesh objects", None),
                   ("lightmap", "lightmaps", None), ("texels", "texels covered", tables.count),

@@ -9,7 +9,6 @@ relative RMS over the covered texels is measured, for the scene and per object. 
 bench/results/lightmaps_vs_cycles.csv and .md (tables.py); rows of scenes and presets it did not
 measure this time are kept from the CSV.
 """
-import csv
 import os
 import sys
 import time
@@ -44,16 +43,6 @@ def measure(scene_name, frame, preset):
     return row
 
 
-def kept_rows(path, measured):
-    """The CSV's rows at `path` with those of the (scene, preset) pairs just measured replaced, in
-    their place; pairs new to it after them."""
-    fresh = {(r["scene"], r["preset"]): r for r in measured}
-    rows = []
-    if os.path.exists(path):
-        with open(path, newline="") as f:
-            rows = [fresh.pop((r["scene"], r["preset"]), r) for r in csv.DictReader(f)]
-    return rows + list(fresh.values())
-
 
 def main():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
@@ -62,7 +51,7 @@ def main():
     load_package().register()
     rows = [measure(name, lightmap_reference.SAMPLE_SCENES[name], preset) for name in scenes for preset in presets]
     path = tables.path_for("lightmaps_vs_cycles")
-    rows = kept_rows(path, rows)
+    rows = tables.kept_rows(path, rows, ("scene", "preset"))
     tables.write(path, list(rows[0]), rows, "Lightmaps against Cycles' image bake",
                  [("scene", "scene", None), ("preset", "preset", None), ("seconds", "bake with lightmaps", tables.seconds),
                   ("texels", "texels", tables.count), ("rms", "relative RMS", tables.percent),

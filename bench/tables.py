@@ -19,6 +19,17 @@ def path_for(name, quick=False):
     return os.path.join(RESULTS, name + ("_quick" if quick else "") + ".csv")
 
 
+def kept_rows(path, measured, key):
+    """The CSV's rows at `path` with those just measured put in their place (rows match where their
+    `key` fields do), and the rows new to it after them: a run of a few cases keeps the others."""
+    fresh = {tuple(r[k] for k in key): r for r in measured}
+    rows = []
+    if os.path.exists(path):
+        with open(path, newline="") as f:
+            rows = [fresh.pop(tuple(r[k] for k in key), r) for r in csv.DictReader(f)]
+    return rows + list(fresh.values())
+
+
 def write(path, fields, rows, title, columns=None, notes=""):
     """Write rows (dicts) to the CSV at `path`, then its Markdown table beside it."""
     with open(path, "w", newline="") as f:
