@@ -19,6 +19,21 @@ using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
 
 dvec3 vec3(const std::array<double, 3>& a) { return dvec3(a[0], a[1], a[2]); }
 
+using RGB = std::array<double, 3>;
+
+// The keywords of a material after its reflectance, with their defaults: one list for Scene.add_material
+// and Solver.set_material.
+auto material_lobes() {
+  return std::make_tuple(py::arg("emission") = RGB{0, 0, 0}, py::arg("transmittance") = RGB{0, 0, 0},
+                         py::arg("glass") = RGB{0, 0, 0}, py::arg("ior") = 1.45, py::arg("specular") = RGB{0, 0, 0},
+                         py::arg("roughness") = 0.5);
+}
+
+Material material(RGB reflectance, RGB emission, RGB transmittance, RGB glass, double ior, RGB specular,
+                  double roughness) {
+  return {vec3(reflectance), vec3(emission), vec3(transmittance), vec3(glass), ior, vec3(specular), roughness};
+}
+
 // Runs `call` without the GIL: C++ work only, on arguments already taken out of Python objects; its
 // result becomes one once the GIL is back.
 template <class Call>
@@ -203,14 +218,20 @@ PYBIND11_MODULE(radiosity_engine, m) {
       .def_readwrite("db_cache_mb", &Settings::db_cache_mb)
       .def_readwrite("threads", &Settings::threads);
 
-  py::class_<SceneDesc>(m, "Scene")
-      .def(py::init<>())
-      .def("add_material",
-           [](SceneDesc& s, std::array<double, 3> reflectance, std::array<double, 3> emission) {
-             s.materials.push_back({vec3(reflectance), vec3(emission)});
-             return int(s.materials.size()) - 1;
-           },
-           py::arg("reflectance"), py::arg("emission") = std::array<double, 3>{0, 0, 0})
+  py::class_<SceneDesc> scene(m, "Scene");
+  std::apply(
+      [&](auto... lobes) {
+        scene.def(
+            "add_material",
+            [](SceneDesc& s, RGB reflectance, RGB emission, RGB transmittance, RGB glass, double ior, RGB specular,
+               double roughness) {
+              s.materials.push_back(material(reflectance, emission, transmittance, glass, ior, specular, roughness));
+              return int(s.materials.size()) - 1;
+            },
+            py::arg("reflectance"), lobes..., "Adds a material and returns its index");
+      },
+      material_lobes());
+  scene.def(py::init<>())
       .def("add_mesh",
            [](SceneDesc& s, const Array<double>& positions, const Array<int>& face_sizes,
               const Array<int>& face_vertices, const Array<int>& face_materials,
@@ -281,7 +302,20 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("texels"), kWorldMapDoc)
       .def_property_readonly("mesh_count", [](const SceneDesc& s) { return s.meshes.size(); });
 
-  py::class_<Solver>(m, "Solver")
+  py::class_<Solver> solver(m, "Solver");
+  std::apply(
+      [&](auto... lobes) {
+        solver.def(
+            "set_material",
+            [](Solver& s, int index, RGB reflectance, RGB emission, RGB transmittance, RGB glass, double ior,
+               RGB specular, double roughness) {
+              s.set_material(index, material(reflectance, emission, transmittance, glass, ior, specular, roughness));
+            },
+            py::arg("index"), py::arg("reflectance"), lobes...,
+            "The material changes at the next update() (incrementally)");
+      },
+      material_lobes());
+  solver
       .def(py::init([](const SceneDesc& scene, const Settings& settings) {
              return released([&] { return std::make_unique<Solver>(scene, settings); });
            }),
@@ -323,11 +357,6 @@ PYBIND11_MODULE(radiosity_engine, m) {
            "so), its meshes as the next object ids and its lamps as the next lamp indices; they come "
            "into the light at the next update(), incrementally (ValueError, changing nothing, on bad "
            "input or a mesh reaching past the scene's size: that needs a new Solver)")
-      .def("set_material",
-           [](Solver& s, int index, std::array<double, 3> reflectance, std::array<double, 3> emission) {
-             s.set_material(index, {vec3(reflectance), vec3(emission)});
-           },
-           py::arg("index"), py::arg("reflectance"), py::arg("emission") = std::array<double, 3>{0, 0, 0})
       .def("set_point_light",
            [](Solver& s, int index, std::array<double, 3> position, std::array<double, 3> intensity, double radius) {
              s.set_lamp(index, point_lamp(position, intensity, radius));

@@ -81,6 +81,18 @@ void validate_material(const Material& m, size_t index) {
   if (!finite(m.emission)) fail(who + ": NaN or infinite emission");
   for (int c = 0; c < 3; ++c)
     if (m.emission[c] < 0) fail(who + ": emission must not be negative");
+  for (const auto& [lobe, name] : {std::pair{m.transmittance, "transmittance"}, {m.glass, "glass colour"},
+                                   {m.specular, "specular colour"}}) {
+    if (!finite(lobe)) fail(who + ": NaN or infinite " + name);
+    for (int c = 0; c < 3; ++c)
+      if (lobe[c] < 0 || lobe[c] > 1) fail(who + ": " + name + " must be in [0, 1]");
+  }
+  dvec3 total = m.reflectance + m.transmittance + m.glass + m.specular;
+  for (int c = 0; c < 3; ++c)
+    if (total[c] > 1 + 1e-9)
+      fail(who + ": reflectance, transmittance, glass and specular add up to more than 1 (it would make light)");
+  if (!(m.ior >= 1 && m.ior <= 10)) fail(who + ": index of refraction must be in [1, 10]");
+  if (!(m.roughness >= 0 && m.roughness <= 1)) fail(who + ": roughness must be in [0, 1]");
 }
 
 void validate_lamp(const Lamp& l, size_t index) {

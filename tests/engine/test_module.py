@@ -412,6 +412,14 @@ def test_bad_input_raises_value_error():
     scene.add_material((1.2, 0.5, 0.5))
     with pytest.raises(ValueError, match="reflectance"):
         engine.Solver(scene)
+    for lobes, message in (({"transmittance": (0.6, 0.5, 0.5)}, "add up to more than 1"),
+                           ({"glass": (0.2, -0.1, 0.2)}, "glass colour must be in"),
+                           ({"specular": (0.2, math.nan, 0.2)}, "NaN or infinite specular"),
+                           ({"ior": 0.9}, "index of refraction"), ({"roughness": 1.5}, "roughness")):
+        scene = engine.Scene()
+        scene.add_material((0.5, 0.5, 0.5), **lobes)
+        with pytest.raises(ValueError, match=message):
+            engine.Solver(scene)
     with pytest.raises(ValueError, match="preset"):
         engine.Settings.preset("ultra")
     for knob, value in (("threshold", 0.0), ("threshold", math.nan), ("relaxation", 2.5), ("relaxation", 0.5),

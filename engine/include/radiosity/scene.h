@@ -17,6 +17,13 @@ using glm::dvec3;
 struct Material {
   dvec3 reflectance{0.8};  // diffuse albedo per channel, each in [0, 1)
   dvec3 emission{0.0};     // emitted radiance, two-sided as Cycles does for meshes
+  // The lobes that pass light on without diffusing it; per channel, reflectance + transmittance +
+  // glass + specular is at most 1.
+  dvec3 transmittance{0.0};  // passes straight through at any angle (Transparent BSDF, alpha)
+  dvec3 glass{0.0};          // refracting interface's colour; Fresnel at `ior` takes its share
+  double ior = 1.45;
+  dvec3 specular{0.0};       // mirror colour (Glossy BSDF, Principled metal)
+  double roughness = 0.5;    // of the specular lobe, as Blender's Roughness input
 };
 
 enum class Refinement {
