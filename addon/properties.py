@@ -116,7 +116,8 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
     show_bake: BoolProperty(
         name="Show Bake", default=False, update=display.on_toggle,
         description="Show the baked light in the viewport and in renders: the lit meshes' materials "
-                    "glow with it in place of their surface (turned off, they are as they were)")
+                    "glow with it (their lightmaps, with Lightmaps on) in place of their surface "
+                    "(turned off, they are as they were)")
     display_exposure: FloatProperty(
         name="Exposure", default=0.0, soft_min=-10.0, soft_max=10.0, precision=2, update=display.on_exposure,
         description="Brightness of the shown bake, in stops")
