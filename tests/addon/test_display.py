@@ -166,6 +166,25 @@ def test_a_lightmap_is_shown_through_its_map_and_hiding_leaves_the_material_as_i
     assert set(bpy.data.node_groups.keys()) == groups
 
 
+def test_a_bake_that_makes_lightmaps_brings_the_shown_display_to_them(addon):
+    scene = empty_scene()
+    me = bpy.data.meshes.new("Floor")
+    me.from_pydata([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [], [(0, 1, 2, 3)])
+    material = own_material("Floor")
+    me.materials.append(material)
+    scene.collection.objects.link(bpy.data.objects.new("Floor", me))
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", 'POINT'))
+    lamp.location.z = 2.0
+    scene.collection.objects.link(lamp)
+    scene.radiosity.preset = 'DRAFT'
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}       # the first bake shows itself: the attribute
+    assert shown_light(addon, material) == ('ShaderNodeAttribute', None)
+    scene.radiosity.lightmaps = True                       # no lightmap yet
+    assert shown_light(addon, material) == ('ShaderNodeAttribute', None)
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    assert shown_light(addon, material) == ('ShaderNodeTexImage', "Floor_Radiosity")
+
+
 def test_a_material_several_lit_objects_use_shows_the_attribute_and_says_so(addon):
     scene = empty_scene()
     scene.radiosity.lightmaps = True
