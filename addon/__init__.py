@@ -12,18 +12,22 @@ bl_info = {
 
 if "bpy" in locals():                       # F8 / reload: re-import the submodules
     import importlib
-    for _m in ("errors", "engine", "settings", "writeback", "texture", "world", "export", "checks", "effects",
-               "scene_diff", "preferences", "estimate", "job", "live_progress", "live_update", "bake_stats", "farm_cache", "farm",
-               "texel_raster", "texel_filter", "texel_padding", "uv_charts", "lightmap", "display", "properties",
-               "operators", "panels"):
+    # Each after the modules it imports, so that the names it takes from them are the new ones. The
+    # two rings (export -> display -> lightmap -> export; live_update <-> live_progress) take whole
+    # modules, which a reload updates in place, so any order within them is right.
+    for _m in ("errors", "engine", "settings", "preferences", "writeback", "texture", "world", "checks", "effects",
+               "uv_charts", "texel_raster", "texel_filter", "texel_padding", "shadow_reach", "export", "lightmap",
+               "lightmap_updates", "lightmap_sequence", "lightmap_still", "display", "scene_diff", "estimate", "job",
+               "live_update", "live_progress", "bake_stats", "farm_cache", "farm", "properties", "operators", "panels"):
         if _m in locals():
             importlib.reload(locals()[_m])
 
 import bpy  # noqa: E402
 
-from . import (errors, engine, settings, writeback, texture, world, export, checks, effects,  # noqa: E402,F401
-               scene_diff, preferences, estimate, job, live_progress, live_update, bake_stats, farm_cache, farm, texel_raster,
-               texel_filter, texel_padding, uv_charts, lightmap, display, properties, operators, panels)
+from . import (errors, engine, settings, preferences, writeback, texture, world, checks, effects,  # noqa: E402,F401
+               uv_charts, texel_raster, texel_filter, texel_padding, shadow_reach, export, lightmap,
+               lightmap_updates, lightmap_sequence, lightmap_still, display, scene_diff, estimate, job,
+               live_update, live_progress, bake_stats, farm_cache, farm, properties, operators, panels)
 
 # One list, registered in order and unregistered in reverse (like Blender's glTF add-on).
 classes = (

@@ -25,6 +25,7 @@ from .lightmap_updates import Lightmaps
 
 SUFFIX = "_lightmaps"
 SCRATCH = ".radiosity_exr"   # the image each file is saved from (a dot: hidden in lists)
+FRAMES = "radiosity_frames"  # on a sequence image: the first and last frame baked into it
 
 
 def folder_for(blend_path):
@@ -74,11 +75,22 @@ def point(image_name, first_path, first, last, size):
     image.filepath = bpy.path.relpath(first_path)       # the folder moves with the .blend
     image.source = 'SEQUENCE'
     image.reload()
+    image[FRAMES] = (first, last)
+    play(image)
+    return image
+
+
+def play(image):
+    """Every node reading sequence `image` plays it over the frames baked into it: also a node
+    added after the bake (Show Bake's)."""
+    frames = image.get(FRAMES)
+    if frames is None:
+        return
+    first, last = frames
     # The number shown at frame f: (f - frame_start + 1, within 1..frame_duration) + frame_offset = f.
     for user in image_users(image):
         user.frame_start, user.frame_duration, user.frame_offset = first, last - first + 1, first - 1
         user.use_auto_refresh, user.use_cyclic = True, False
-    return image
 
 
 class SequenceBake:

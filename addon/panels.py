@@ -208,6 +208,8 @@ def draw_output(layout, context):
     col.prop(props, "show_bake")
     if props.show_bake:
         col.prop(props, "display_exposure")
+        if props.display_note:
+            _labels(layout, props.display_note, icon='INFO')
     layout.prop(props, "lightmaps")
     if props.lightmaps:
         col = layout.column(align=True)

@@ -79,7 +79,7 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
                     "Bake Animation's frames from the saved .blend (docs/farm.md). Empty: this computer "
                     "alone")
     lightmaps: BoolProperty(
-        name="Lightmaps", default=False,
+        name="Lightmaps", default=False, update=display.on_lightmaps,
         description="Bake also an image '<object>_Radiosity' per lit mesh, in the UV map 'RadiosityUV' "
                     "(made if missing): shadows finer than the patches, packed into the .blend")
     texel_density: FloatProperty(
@@ -116,11 +116,13 @@ class RADIOSITY_PG_settings(bpy.types.PropertyGroup):
     show_bake: BoolProperty(
         name="Show Bake", default=False, update=display.on_toggle,
         description="Show the baked light in the viewport and in renders: the lit meshes' materials "
-                    "glow with it in place of their surface (turned off, they are as they were)")
+                    "glow with it (their lightmaps, with Lightmaps on) in place of their surface "
+                    "(turned off, they are as they were)")
     display_exposure: FloatProperty(
         name="Exposure", default=0.0, soft_min=-10.0, soft_max=10.0, precision=2, update=display.on_exposure,
         description="Brightness of the shown bake, in stops")
     display_offered: BoolProperty(default=False)   # the first bake turns Show Bake on, later ones do not
+    display_note: StringProperty(default="")   # display.note: materials that show the attribute in place of a lightmap
 
 
 classes = (RADIOSITY_PG_settings,)
