@@ -32,8 +32,10 @@ KEPT = "radiosity_active_output"           # on OUTPUT: the output that was acti
 def _group():
     """The shared node group: Light -> Emission (strength 2^Exposure) -> Shader."""
     group = bpy.data.node_groups.get(GROUP)
-    if group is not None:
+    if group is not None and group.inputs.get("Light") is not None:
         return group
+    if group is not None:       # an older add-on's group, read from a saved file: its nodes are made anew
+        bpy.data.node_groups.remove(group)
     group = bpy.data.node_groups.new(GROUP, 'ShaderNodeTree')
     group.inputs.new('NodeSocketColor', "Light")
     group.inputs.new('NodeSocketFloat', "Exposure")

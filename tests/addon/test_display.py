@@ -166,6 +166,21 @@ def test_a_lightmap_is_shown_through_its_map_and_hiding_leaves_the_material_as_i
     assert set(bpy.data.node_groups.keys()) == groups
 
 
+def test_a_display_saved_by_an_older_group_without_a_light_input_is_made_anew(addon):
+    scene = empty_scene()
+    material = own_material("Own")
+    lit_plane(addon, "Plane", material)
+    old = bpy.data.node_groups.new(addon.display.GROUP, 'ShaderNodeTree')    # the attribute inside, no input
+    old.inputs.new('NodeSocketFloat', "Exposure")
+    node = material.node_tree.nodes.new('ShaderNodeGroup')
+    node.node_tree, node.name = old, addon.display.NODE
+    output = material.node_tree.nodes.new('ShaderNodeOutputMaterial')
+    output.name = addon.display.OUTPUT
+    scene.radiosity.show_bake = True
+    assert shown_light(addon, material) == ('ShaderNodeAttribute', None)
+    assert material.node_tree.nodes[addon.display.NODE].node_tree.inputs.get("Light") is not None
+
+
 def test_a_bake_that_makes_lightmaps_brings_the_shown_display_to_them(addon):
     scene = empty_scene()
     me = bpy.data.meshes.new("Floor")
