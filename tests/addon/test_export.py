@@ -655,3 +655,57 @@ def test_the_engine_takes_the_lobes_and_a_lobe_change_is_a_material_change(addon
     calls = addon.scene_diff.diff_exports(a, b, engine)
     assert calls == [("set_material", (i, a.materials[i].reflectance, *b.materials[i].lobes().values()))]
     assert calls[0][1][3] == (0.5, 0.5, 0.5)
+
+
+# ----------------------------------------------------------------------------- effect plan rows
+OPTICS_ROWS = {"Transmission", "Refraction (direction kept)", "Frosted glass", "Mix factors as means", "Mirrors",
+               "Glass reflections", "Principled specular"}
+
+
+def test_effects_name_the_materials_and_objects_that_call_for_them(addon, open_sample):
+    effects = addon.effects
+    open_sample("window_room")
+    rows = {short: (kind, detail) for kind, short, detail in effects.items(addon.export.export_scene())}
+    assert rows["Transmission"] == (effects.SIMULATED, "light through transparent and glass surfaces, filtered "
+                                                      "by their colour (Pane on Pane)")
+    assert not OPTICS_ROWS - {"Transmission"} & set(rows)
+    open_sample("mirror_room")
+    rows = {short: (kind, detail) for kind, short, detail in effects.items(addon.export.export_scene())}
+    assert rows["Mirrors"][0] == effects.LEFT_OUT and rows["Mirrors"][1].endswith("(Mirror on Mirror)")
+    assert not OPTICS_ROWS - {"Mirrors"} & set(rows)
+
+
+def test_a_scene_without_glass_or_mirrors_lists_no_optics(addon, open_sample):
+    open_sample("cornell_box")
+    listed = addon.effects.items(addon.export.export_scene())
+    assert not OPTICS_ROWS & {short for _, short, _ in listed}
+    sentence = addon.effects.sentence(listed)
+    assert "transmission" not in sentence.lower() and "mirror" not in sentence.lower()
+    assert sentence.endswith("left out: volumes and subsurface scattering (a diffuse bake)")
+
+
+def test_glass_metal_and_alpha_rows_fit_the_sidebar(addon, empty_scene):
+    """Every optics row, each naming its material and object; the panel lists the short words as an
+    icon button's text (test_panel_fit.leaf), which must fit uncut."""
+    import test_panel_fit as panel
+    export, effects = addon.export, addon.effects
+    shaded_plane("ShaderNodeBsdfGlass", Roughness=0.3)
+    shaded_plane("ShaderNodeBsdfPrincipled", Metallic=0.5)
+    leaves, _ = shaded_plane("ShaderNodeBsdfDiffuse")
+    mix = link_mix(leaves, ("ShaderNodeBsdfTransparent", {}), ("ShaderNodeBsdfDiffuse", {}), 1.0)
+    tex = leaves.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.new("Leaf", 2, 2, alpha=True)
+    tex.image.pixels.foreach_set(np.tile(np.float32([1, 1, 1, 0.5]), 4))
+    leaves.node_tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
+    listed = effects.items(export.export_scene())
+    rows = {short: (kind, detail) for kind, short, detail in listed}
+    assert OPTICS_ROWS <= set(rows)
+    assert rows["Refraction (direction kept)"] == (effects.APPROXIMATED, "glass passing light on straight, not "
+                                                   "bent (ShaderNodeBsdfGlass on Plane)")
+    assert rows["Transmission"][1].endswith("(ShaderNodeBsdfGlass on Plane; ShaderNodeBsdfDiffuse on Plane.002)")
+    assert rows["Principled specular"][0] == effects.LEFT_OUT and rows["Glass reflections"][0] == effects.LEFT_OUT
+    assert rows["Mix factors as means"][1].endswith("(ShaderNodeBsdfDiffuse on Plane.002)")
+    cut = []
+    for short in rows:
+        panel.fits(short, panel.WIDTHS["sidebar"] - panel.PAD - panel.CLIP - panel.ICON, "effects", cut)
+    assert not cut, cut
