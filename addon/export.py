@@ -24,7 +24,7 @@ from . import display
 from . import texture as colour_texture
 from . import world as world_light
 
-__all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "Lobes", "NOTES", "FROSTED", "SPECULAR_LAYER",
+__all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "Lobes", "FROSTED", "SPECULAR_LAYER",
            "MEAN_FACTOR", "SUBSURFACE", "VOLUME", "export_scene", "to_engine",
            "export_materials_of", "material_values", "world_radiance", "light_values", "dark",
            "POINT_INTENSITY_PER_WATT", "AREA_RADIANCE_FACTOR", "DEFAULT_REFLECTANCE"]
@@ -55,7 +55,7 @@ class MaterialExport:
     ior: float = 1.45
     specular: tuple = (0.0, 0.0, 0.0)
     roughness: float = 0.5
-    notes: frozenset = frozenset()    # what the lobes stand in for approximately or leave out (NOTES)
+    notes: frozenset = frozenset()    # what the lobes stand in for approximately or leave out (FROSTED...)
 
     def lobes(self):
         """Scene.add_material's keywords after the reflectance, in the order Solver.set_material takes them
@@ -209,7 +209,6 @@ SPECULAR_LAYER = "specular layer"         # a Principled BSDF's dielectric refle
 MEAN_FACTOR = "mean factor"               # a Mix's factor or an Alpha that varies over the mesh, as its mean
 SUBSURFACE = "subsurface"
 VOLUME = "volume"
-NOTES = (FROSTED, SPECULAR_LAYER, MEAN_FACTOR, SUBSURFACE, VOLUME)
 FROSTED_ROUGHNESS = 0.1                   # glass rougher than this scatters its light visibly
 
 
