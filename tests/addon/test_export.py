@@ -709,3 +709,21 @@ def test_glass_metal_and_alpha_rows_fit_the_sidebar(addon, empty_scene):
     for short in rows:
         panel.fits(short, panel.WIDTHS["sidebar"] - panel.PAD - panel.CLIP - panel.ICON, "effects", cut)
     assert not cut, cut
+
+
+def test_a_textured_metal_keeps_its_texture_diffuse_and_its_mean_as_mirror(export, empty_scene):
+    """A Principled base colour from an image: the diffuse lobe varies per corner (the texture, times
+    1 - metallic), the metal lobe, one colour a material, is the image's mean times metallic."""
+    mat, node = shaded_plane("ShaderNodeBsdfPrincipled", Metallic=0.5)
+    image = bpy.data.images.new("Base", 2, 2, float_buffer=True)
+    image.pixels.foreach_set(np.array([[0.2, 0.4, 0.6, 1], [0.6, 0.4, 0.2, 1]] * 2, np.float32).ravel())
+    tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tex.interpolation = 'Closest'          # each corner reads its own texel
+    mat.node_tree.links.new(tex.outputs["Color"], node.inputs["Base Color"])
+    s = export.export_scene()
+    m = s.materials[s.material_index(mat.name)]
+    np.testing.assert_allclose(m.specular, (0.2, 0.2, 0.2), rtol=1e-6)
+    np.testing.assert_allclose(m.reflectance, (0.2, 0.2, 0.2), rtol=1e-6)
+    corners = s.mesh("Plane").corner_reflectance
+    np.testing.assert_allclose(np.sort(corners[:, 0]), (0.1, 0.1, 0.3, 0.3), rtol=1e-6)
