@@ -1,6 +1,7 @@
 """What light a bake simulates, approximates and leaves out: the panel's lists and the bake report's sentence."""
 import numpy as np
 
+from . import export as exporter
 from . import texture
 
 
@@ -18,9 +19,57 @@ def _both_sides(m):
 
 
 SIMULATED, APPROXIMATED, LEFT_OUT = "simulated", "approximated", "left out"
-# DESIGN.md: the attribute holds what Cycles' bake of a diffuse scene holds; a material's metal or
-# glass is reported where it is met.
-LEFT_OUT_TEXT = "left out: glossy reflection, transmission, volumes and subsurface scattering (a diffuse bake)"
+
+
+def _users(meshes):
+    """{material index: names of the objects in `meshes` whose faces use it}, objects once each."""
+    users = {}
+    for m in meshes:
+        for i in np.unique(m.face_materials):
+            names = users.setdefault(int(i), [])
+            if m.object_name not in names:
+                names.append(m.object_name)
+    return users
+
+
+def _named(sx, users, calls_for):
+    """'Pane on Window, Door; ...' for the materials in `users` that `calls_for` (a MaterialExport
+    test) picks, or "" if none does."""
+    def objects(names):
+        return ", ".join(names[:5]) + (" ..." if len(names) > 5 else "")
+    picked = [f"{sx.materials[i].name} on {objects(names)}" for i, names in sorted(users.items())
+              if calls_for(sx.materials[i])]
+    return "; ".join(picked[:5]) + (" ..." if len(picked) > 5 else "")
+
+
+def _optics(sx, users):
+    """The rows for light that materials pass on without diffusing it (export.Lobes): each with the
+    materials that call for it and the objects that use them; none where no material does."""
+    def some(lobe):
+        return lambda m: max(getattr(m, lobe)) > 0
+
+    def noted(note):
+        return lambda m: note in m.notes
+    rows = [
+        (SIMULATED, "Transmission", "light through transparent and glass surfaces, filtered by their colour",
+         lambda m: max(m.transmittance) > 0 or max(m.glass) > 0),
+        (APPROXIMATED, "Refraction (direction kept)", "glass passing light on straight, not bent", some("glass")),
+        (APPROXIMATED, "Frosted glass", "rough glass passing light on as clear glass does",
+         noted(exporter.FROSTED)),
+        (APPROXIMATED, "Mix factors as means",
+         "a Mix factor or Alpha that varies over a mesh (an image's alpha) taken as its mean",
+         noted(exporter.MEAN_FACTOR)),
+        (LEFT_OUT, "Mirrors", "mirror and metal reflection, smooth or rough", some("specular")),
+        (LEFT_OUT, "Glass reflections", "the light glass reflects off its faces", some("glass")),
+        (LEFT_OUT, "Principled specular", "the specular layer of Principled BSDFs (their Specular input)",
+         noted(exporter.SPECULAR_LAYER)),
+    ]
+    out = []
+    for kind, short, detail, calls_for in rows:
+        who = _named(sx, users, calls_for)
+        if who:
+            out.append([kind, short, f"{detail} ({who})"])
+    return out
 
 
 def items(sx):
@@ -67,11 +116,16 @@ def items(sx):
         out.append([SIMULATED, f"Both sides of {len(both)} mesh{'es' if len(both) > 1 else ''}",
                     "both sides of open meshes or ones with flipped faces ("
                     + ", ".join(both[:5]) + (" ..." if len(both) > 5 else "") + ")"])
-    out += [[LEFT_OUT, "Glossy reflection", LEFT_OUT_TEXT], [LEFT_OUT, "Transmission", LEFT_OUT_TEXT],
-            [LEFT_OUT, "Volumes, subsurface", LEFT_OUT_TEXT]]
+    users = _users(meshes)
+    out += _optics(sx, users)
+    # Never simulated, named with the materials that have them; the attribute holds diffuse light.
+    who = _named(sx, users, lambda m: exporter.VOLUME in m.notes or exporter.SUBSURFACE in m.notes)
+    out.append([LEFT_OUT, "Volumes, subsurface",
+                f"volumes and subsurface scattering ({who + '; ' if who else ''}a diffuse bake)"])
     return out
 
 
 def sentence(listed):
     """The report's sentence of items(): what is simulated or approximated, then what is left out."""
-    return ", ".join([detail for kind, _, detail in listed if kind != LEFT_OUT] + [LEFT_OUT_TEXT])
+    return ", ".join([detail for kind, _, detail in listed if kind != LEFT_OUT]
+                     + ["left out: " + ", ".join(detail for kind, _, detail in listed if kind == LEFT_OUT)])

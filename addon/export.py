@@ -24,7 +24,8 @@ from . import display
 from . import texture as colour_texture
 from . import world as world_light
 
-__all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "export_scene", "to_engine",
+__all__ = ["SceneExport", "MeshExport", "MaterialExport", "LightExport", "Lobes", "FROSTED", "SPECULAR_LAYER",
+           "MEAN_FACTOR", "SUBSURFACE", "VOLUME", "export_scene", "to_engine",
            "export_materials_of", "material_values", "world_radiance", "light_values", "dark",
            "POINT_INTENSITY_PER_WATT", "AREA_RADIANCE_FACTOR", "DEFAULT_REFLECTANCE"]
 
@@ -39,7 +40,7 @@ MAX_REFLECTANCE = 0.99                             # the engine takes reflectanc
 @dataclass
 class MaterialExport:
     name: str
-    reflectance: tuple            # rho, linear RGB
+    reflectance: tuple            # rho, linear RGB: the diffuse lobe
     emission: tuple               # emitted radiance, linear RGB, two-sided
     warnings: list = field(default_factory=list)
     # What varies the BSDF's colour over a mesh (texture.TextureRef, AttributeRef, MixRef or AdjustRef):
@@ -47,6 +48,20 @@ class MaterialExport:
     # gives where it cannot be read there (an image's mean; black for an attribute, as in Cycles).
     texture: object = None
     emission_texture: object = None   # the same for the emission colour (MeshExport.corner_emission)
+    # The lobes that pass light on without diffusing it (Lobes); per channel, reflectance +
+    # transmittance + glass + specular is at most one.
+    transmittance: tuple = (0.0, 0.0, 0.0)
+    glass: tuple = (0.0, 0.0, 0.0)
+    ior: float = 1.45
+    specular: tuple = (0.0, 0.0, 0.0)
+    roughness: float = 0.5
+    notes: frozenset = frozenset()    # what the lobes stand in for approximately or leave out (FROSTED...)
+
+    def lobes(self):
+        """Scene.add_material's keywords after the reflectance, in the order Solver.set_material takes them
+        after its index and reflectance."""
+        return dict(emission=self.emission, transmittance=self.transmittance, glass=self.glass, ior=self.ior,
+                    specular=self.specular, roughness=self.roughness)
 
 
 @dataclass
@@ -188,45 +203,152 @@ def _colour(node, name, warnings, textures):
     return np.ones(3)
 
 
-def _shader(node, warnings, depth=0, textures=None, emissions=None):
-    """(reflectance, emission) of a shader node, as numpy (3,) arrays. With `textures` (a list), what
-    varies the node's own colour over a mesh is collected there and the colour taken as one; with
-    `emissions`, the same for its emission colour."""
-    zero = np.zeros(3)
+# MaterialExport.notes: what a material's lobes stand in for approximately, or leave out.
+FROSTED = "frosted glass"                 # rough refraction, passed on as if clear
+SPECULAR_LAYER = "specular layer"         # a Principled BSDF's dielectric reflection over its diffuse part
+MEAN_FACTOR = "mean factor"               # a Mix's factor or an Alpha that varies over the mesh, as its mean
+SUBSURFACE = "subsurface"
+VOLUME = "volume"
+FROSTED_ROUGHNESS = 0.1                   # glass rougher than this scatters its light visibly
+
+
+def _zero():
+    return np.zeros(3)
+
+
+@dataclass
+class Lobes:
+    """What a shader does with the light it gets, per RGB channel: the diffuse reflectance, emitted
+    radiance, and the lobes that pass light on undiffused, as the engine's Material takes them."""
+    reflectance: np.ndarray = field(default_factory=_zero)
+    emission: np.ndarray = field(default_factory=_zero)
+    transmittance: np.ndarray = field(default_factory=_zero)   # straight through (Transparent BSDF, alpha)
+    glass: np.ndarray = field(default_factory=_zero)           # refracting interface's colour
+    ior: float = 1.45
+    specular: np.ndarray = field(default_factory=_zero)        # mirror colour (Glossy BSDF, metal)
+    roughness: float = 0.5                                     # of the specular lobe
+    notes: frozenset = frozenset()
+
+    COLOURS = ("reflectance", "emission", "transmittance", "glass", "specular")
+
+    def scaled(self, f):
+        """Every colour times f (a number); what a zero weight leaves has no notes."""
+        return replace(self, notes=self.notes if f > 0 else frozenset(),
+                       **{k: getattr(self, k) * f for k in self.COLOURS})
+
+    def plus(self, other):
+        """The sum of two shaders (an Add shader, the two sides of a Mix once weighted): colours add,
+        the index of refraction and the roughness average by the glass and specular lobes they
+        belong to."""
+        def by(weight, key):
+            wa, wb = float(np.mean(getattr(self, weight))), float(np.mean(getattr(other, weight)))
+            a, b = getattr(self, key), getattr(other, key)
+            return (wa * a + wb * b) / (wa + wb) if wa + wb > 0 else a
+        return Lobes(**{k: getattr(self, k) + getattr(other, k) for k in self.COLOURS},
+                     ior=by("glass", "ior"), roughness=by("specular", "roughness"), notes=self.notes | other.notes)
+
+
+def _tint(node, name, warnings, images):
+    """(3,) a colour input of a lobe that passes light on: its mean over the mesh where it varies."""
+    source = colour_texture.colour_source(node.inputs[name], warnings)
+    if source is None:
+        return np.array(_input_value(node, name, warnings)[:3])
+    return np.asarray(colour_texture.mean_of(source, images), np.float64)
+
+
+def _factor(node, name, warnings, images):
+    """(value, varies) of a number input: an image's alpha or a colour's luminance linked into it
+    taken as its mean over the image (varies: True), else its unlinked value."""
+    socket = node.inputs[name]
+    value = colour_texture._input_number(node, socket, warnings, 0)
+    if isinstance(value, float):
+        return value, False
+    return float(colour_texture.mean_of(value, images)), True
+
+
+def _first(node, names):
+    """The first of an input's names (Blender 3.x's, then 4.x's) the node has."""
+    return next(n for n in names if node.inputs.get(n) is not None)
+
+
+def _number(node, names, warnings, default=0.0):
+    present = [n for n in names if node.inputs.get(n) is not None]
+    return float(_input_value(node, present[0], warnings)) if present else default
+
+
+def _principled(node, warnings, textures, emissions, images):
+    """Lobes of a Principled BSDF (Blender 3.4's): Cycles' diffuse base times (1 - metallic)(1 -
+    transmission), a metal mirror of the base colour times metallic, glass of it times transmission
+    (1 - metallic), emission; Alpha a mixes all of it with a Transparent BSDF (every lobe times a,
+    transmittance 1 - a), as Cycles expands the node."""
+    before = len(textures) if textures is not None else 0
+    base = _colour(node, "Base Color", warnings, textures)
+    # a base colour that varies over the mesh: the diffuse lobe has it per corner, the others its mean
+    tint = base if textures is None or len(textures) == before else \
+        np.asarray(colour_texture.mean_of(textures[-1], images), np.float64)
+    metal = _number(node, ("Metallic",), warnings)
+    trans = _number(node, ("Transmission", "Transmission Weight"), warnings)
+    roughness = _number(node, ("Roughness",), warnings, 0.5)
+    ecol = _colour(node, _first(node, ("Emission", "Emission Color")), warnings, emissions)
+    estr = _input_value(node, "Emission Strength", warnings)
+    notes = set()
+    dielectric = (1 - metal) * (1 - trans)
+    if dielectric > 0 and _number(node, ("Specular", "Specular IOR Level"), warnings) > 0:
+        notes.add(SPECULAR_LAYER)
+    if _number(node, ("Subsurface", "Subsurface Weight"), warnings) > 0:
+        notes.add(SUBSURFACE)
+    glass_roughness = 1 - (1 - roughness) * (1 - _number(node, ("Transmission Roughness",), warnings))
+    if trans * (1 - metal) > 0 and glass_roughness > FROSTED_ROUGHNESS:
+        notes.add(FROSTED)
+    alpha, varies = _factor(node, "Alpha", warnings, images)
+    if varies:
+        notes.add(MEAN_FACTOR)
+    lobes = Lobes(reflectance=base * dielectric, emission=ecol * (1.0 if estr is None else float(estr)),
+                  glass=tint * trans * (1 - metal), ior=_number(node, ("IOR",), warnings, 1.45),
+                  specular=tint * metal, roughness=roughness, notes=frozenset(notes))
+    if alpha >= 1:
+        return lobes
+    return lobes.scaled(max(alpha, 0.0)).plus(Lobes(transmittance=np.full(3, 1 - max(alpha, 0.0))))
+
+
+def _shader(node, warnings, depth=0, textures=None, emissions=None, images=None):
+    """Lobes of a shader node. With `textures` (a list), what varies the node's own colour over a mesh
+    is collected there and the colour taken as one; with `emissions`, the same for its emission
+    colour. `images`: the export's texture.Images, for the means of colours that vary."""
     if node is None or depth > 16:
-        return zero, zero
+        return Lobes()
     t = node.type
     if t == 'BSDF_DIFFUSE':
-        return _colour(node, "Color", warnings, textures), zero
+        return Lobes(reflectance=_colour(node, "Color", warnings, textures))
     if t == 'EMISSION':
         c = _colour(node, "Color", warnings, emissions)
-        return zero, c * float(_input_value(node, "Strength", warnings))
+        return Lobes(emission=c * float(_input_value(node, "Strength", warnings)))
     if t == 'BSDF_PRINCIPLED':
-        base = _colour(node, "Base Color", warnings, textures)
-        metal = float(_input_value(node, "Metallic", warnings) or 0.0)
-        trans = float(_input_value(node, "Transmission", warnings) or 0.0) \
-            if node.inputs.get("Transmission") is not None else 0.0
-        ecol = _colour(node, "Emission" if node.inputs.get("Emission") is not None else "Emission Color",  # 4.x
-                       warnings, emissions)
-        estr = _input_value(node, "Emission Strength", warnings)
-        em = ecol * (1.0 if estr is None else float(estr))
-        if metal > 0 or trans > 0:
-            warnings.append(f"{node.name}: metallic/transmission treated as diffuse loss")
-        return base * (1 - metal) * (1 - trans), em
+        return _principled(node, warnings, textures, emissions, images)
+    if t == 'BSDF_TRANSPARENT':
+        return Lobes(transmittance=_tint(node, "Color", warnings, images))
+    if t == 'BSDF_GLASS':
+        frosted = float(_input_value(node, "Roughness", warnings)) > FROSTED_ROUGHNESS
+        return Lobes(glass=_tint(node, "Color", warnings, images), ior=float(_input_value(node, "IOR", warnings)),
+                     notes=frozenset({FROSTED}) if frosted else frozenset())
+    if t in ('BSDF_GLOSSY', 'BSDF_ANISOTROPIC'):
+        return Lobes(specular=_tint(node, "Color", warnings, images),
+                     roughness=float(_input_value(node, "Roughness", warnings)))
     if t == 'ADD_SHADER':
-        a = _shader(_linked(node.inputs[0]), warnings, depth + 1)
-        b = _shader(_linked(node.inputs[1]), warnings, depth + 1)
-        return a[0] + b[0], a[1] + b[1]
+        return _shader(_linked(node.inputs[0]), warnings, depth + 1, images=images).plus(
+            _shader(_linked(node.inputs[1]), warnings, depth + 1, images=images))
     if t == 'MIX_SHADER':
-        f = float(_input_value(node, "Fac", warnings))
-        a = _shader(_linked(node.inputs[1]), warnings, depth + 1)
-        b = _shader(_linked(node.inputs[2]), warnings, depth + 1)
-        return (1 - f) * a[0] + f * b[0], (1 - f) * a[1] + f * b[1]
+        f, varies = _factor(node, "Fac", warnings, images)
+        f = min(max(f, 0.0), 1.0)
+        a = _shader(_linked(node.inputs[1]), warnings, depth + 1, images=images)
+        b = _shader(_linked(node.inputs[2]), warnings, depth + 1, images=images)
+        mixed = a.scaled(1 - f).plus(b.scaled(f))
+        return replace(mixed, notes=mixed.notes | {MEAN_FACTOR}) if varies else mixed
     if t == 'GROUP' or t == 'REROUTE':
         warnings.append(f"{node.name}: {t} node not followed; treated as black")
-        return zero, zero
+        return Lobes()
     warnings.append(f"{node.name}: unsupported shader {t}; treated as black")
-    return zero, zero
+    return Lobes()
 
 
 def _linked(socket):
@@ -235,6 +357,26 @@ def _linked(socket):
     return socket.links[0].from_node
 
 
+
+
+def _material(name, lobes, warnings, texture=None, emission_texture=None):
+    """MaterialExport of Lobes, each lobe brought into what the engine takes (reported where it was
+    not): the diffuse one below one, each in [0, 1], together at most one per channel, the index of
+    refraction in [1, 10], the roughness in [0, 1]."""
+    rho = _below_one(lobes.reflectance, "its colours", warnings)
+    tau, glass, spec = (np.clip(np.asarray(c, np.float64), 0.0, 1.0)
+                        for c in (lobes.transmittance, lobes.glass, lobes.specular))
+    total = rho + tau + glass + spec
+    if (total > 1).any():
+        warnings.append(f"its lobes pass on up to {total.max():.3g} of the light; scaled down to one "
+                        "(a surface cannot give out more light than it gets)")
+        rho, tau, glass, spec = (c / np.maximum(total, 1.0) for c in (rho, tau, glass, spec))
+    ior = float(np.clip(lobes.ior, 1.0, 10.0))
+    if ior != lobes.ior and glass.any():
+        warnings.append(f"index of refraction {lobes.ior:.3g} taken as {ior:.3g}")
+    return MaterialExport(name, _rgb(rho), _rgb(np.maximum(lobes.emission, 0.0)), list(dict.fromkeys(warnings)),
+                          texture, emission_texture, _rgb(tau), _rgb(glass), ior, _rgb(spec),
+                          float(np.clip(lobes.roughness, 0.0, 1.0)), lobes.notes)
 
 
 def material_values(mat, images=None):
@@ -249,20 +391,21 @@ def material_values(mat, images=None):
         if out is None:
             return MaterialExport(mat.name, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), ["no material output"])
         textures, emissions = [], []
-        rho, em = _shader(_linked(out.inputs["Surface"]), warnings, textures=textures, emissions=emissions)
+        lobes = _shader(_linked(out.inputs["Surface"]), warnings, textures=textures, emissions=emissions,
+                        images=images)
+        if out.inputs["Volume"].is_linked:
+            lobes = replace(lobes, notes=lobes.notes | {VOLUME})
         # Where they cannot be read at the corners (no UVs...): texture.mean_of.
         source = textures[0] if textures else None
         if source is not None:
-            source.factor = rho
-            rho = colour_texture.mean_of(source, images)
+            source.factor = lobes.reflectance
+            lobes = replace(lobes, reflectance=colour_texture.mean_of(source, images))
         emission_source = emissions[0] if emissions else None
         if emission_source is not None:
-            emission_source.factor = em
-            em = np.maximum(colour_texture.mean_of(emission_source, images), 0.0)
-        return MaterialExport(mat.name, _rgb(_below_one(rho, "its colours", warnings)), _rgb(em), warnings,
-                              source, emission_source)
-    rho, em = np.array(mat.diffuse_color[:3]), np.zeros(3)
-    return MaterialExport(mat.name, _rgb(_below_one(rho, "its colours", warnings)), _rgb(em), warnings)
+            emission_source.factor = lobes.emission
+            lobes = replace(lobes, emission=colour_texture.mean_of(emission_source, images))
+        return _material(mat.name, lobes, warnings, source, emission_source)
+    return _material(mat.name, Lobes(reflectance=np.array(mat.diffuse_color[:3])), warnings)
 
 
 def world_radiance(world, warnings=None, images=None):
@@ -826,7 +969,7 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
     first = (len(after.materials), len(after.meshes), len(after.lights)) if after else (0, 0, 0)
     s = engine.Scene()
     for m in sx.materials[first[0]:]:
-        s.add_material(reflectance=m.reflectance, emission=m.emission)
+        s.add_material(m.reflectance, **m.lobes())
     ids = {}
     for m in sx.meshes[first[1]:]:
         dyn = m.animated if dynamic is None else (m.name in dynamic)

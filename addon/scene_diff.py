@@ -129,8 +129,8 @@ def diff_exports(old, new, engine):
         if not np.array_equal(a.positions, b.positions):
             calls.append(("set_positions", (i, b.positions)))
     for i, (a, b) in enumerate(zip(old.materials, new.materials)):
-        if not (_same(a.reflectance, b.reflectance) and _same(a.emission, b.emission)):
-            calls.append(("set_material", (i, b.reflectance, b.emission)))
+        if not (_same(a.reflectance, b.reflectance) and a.lobes() == b.lobes()):
+            calls.append(("set_material", (i, b.reflectance, *b.lobes().values())))
     for i, (a, b) in enumerate(zip(old.lights, new.lights)):
         ca, cb = _lamp_call(i, a), _lamp_call(i, b)
         if not all(_same(x, y) if isinstance(x, np.ndarray) or isinstance(y, np.ndarray) else x == y

@@ -16,6 +16,14 @@ Every object uses a Diffuse BSDF or an Emission node material, so Cycles is a fa
                        and ceiling one quad each, a table, a sofa, a cabinet and a wall shelf of
                        boxes with few large faces; an area lamp under the ceiling and a spot lamp,
                        so that shadows and the spot's hot spot fall inside faces.
+  window_room.blend    closed 5 x 4 x 2.7 m room lit only through a 1.6 x 1.2 m window in its +Y wall:
+                       a one-quad pane ("Pane", Transparent BSDF), the sun 35 degrees up shining
+                       through it onto the floor, a 0.2 grey world seen through it.
+  mirror_room.blend    closed 4 x 4 x 2.5 m room, an area lamp under the ceiling, a 1.5 x 1 m mirror
+                       ("Mirror", Glossy BSDF of roughness 0) 5 mm in front of a wall, a box on the floor.
+
+The last two are the optics scenes: their pane and mirror are what Cycles compares the engine's
+transmission and mirrors on (their references raise Cycles' glossy and transmission bounces).
 """
 import math
 import os
@@ -87,6 +95,8 @@ def shader_material(name, node_type, rgb, **inputs):
 
 
 def diffuse(name, rgb):
+    """A Diffuse BSDF material; also the opaque or black stand-in the optics references swap in
+    for a pane or a mirror."""
     return shader_material(name, "ShaderNodeBsdfDiffuse", rgb, Roughness=0.0)
 
 
@@ -171,6 +181,12 @@ def linear_keys(id_data):
         for fc in ad.action.fcurves:
             for kp in fc.keyframe_points:
                 kp.interpolation = 'LINEAR'
+
+
+def world_colour(sc, grey):
+    bg = sc.world.node_tree.nodes["Background"]
+    bg.inputs["Color"].default_value = (grey, grey, grey, 1.0)
+    sc.world.color = (grey, grey, grey)
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -287,10 +303,53 @@ def make_interior_room():
     save("interior_room.blend")
 
 
+def make_window_room():
+    sc = new_scene()
+    world_colour(sc, 0.2)
+    wall = diffuse("Wall", (0.75, 0.73, 0.68))
+    floor = diffuse("Floor", (0.45, 0.3, 0.18))
+    ceiling = diffuse("Ceiling", (0.8, 0.8, 0.8))
+    pane = shader_material("Pane", "ShaderNodeBsdfTransparent", (0.9, 0.92, 0.9))
+    X, Y, Z = 2.5, 2.0, 2.7
+    room("Room", (-X, -Y, 0.0), (X, Y, Z), ("-Z", "+Z", "-Y", "-X", "+X"), [wall, floor, ceiling], (1, 2, 0, 0, 0))
+    # The +Y wall around a 1.6 x 1.2 m hole (sill 0.8 m up): four quads facing -Y, into the room.
+    x0, x1, z0, z1 = -0.8, 0.8, 0.8, 2.0
+    xs, zs = (-X, x0, x1, X), (0.0, z0, z1, Z)
+    verts = [(x, Y, z) for z in zs for x in xs]
+    quads = [(i, j) for j in range(3) for i in range(3) if (i, j) != (1, 1)]
+    faces = [(j * 4 + i, j * 4 + i + 1, (j + 1) * 4 + i + 1, (j + 1) * 4 + i) for i, j in quads]
+    mesh_object("WindowWall", verts, faces, [wall])
+    mesh_object("Pane", [(x0, Y, z0), (x0, Y, z1), (x1, Y, z1), (x1, Y, z0)], [(0, 3, 2, 1)], [pane])
+    # 35 degrees up, 20 degrees round from the wall's normal: the patch of sun lands on the floor
+    lamp("Sun", 'SUN', (0.0, 4.0, 4.0), rotation=(math.radians(-55.0), 0.0, math.radians(20.0)), energy=3.0,
+         angle=math.radians(2.0), color=(1.0, 0.95, 0.9))
+    camera((-2.3, -1.8, 1.6), (78.0, 0.0, -35.0), lens=18.0)
+    save("window_room.blend")
+
+
+def make_mirror_room():
+    new_scene()
+    wall = diffuse("Wall", (0.75, 0.75, 0.75))
+    floor = diffuse("Floor", (0.4, 0.45, 0.5))
+    boxm = diffuse("BoxOrange", (0.8, 0.45, 0.15))
+    mirror = shader_material("Mirror", "ShaderNodeBsdfGlossy", (0.9, 0.9, 0.9), Roughness=0.0)
+    room("Room", (-2.0, -2.0, 0.0), (2.0, 2.0, 2.5), ("-Z", "+Z", "-Y", "+Y", "-X", "+X"),
+         [wall, floor], (1, 0, 0, 0, 0, 0))
+    # on the -X wall, facing +X: its light lands on the floor and the far walls
+    y0, y1, z0, z1, x = -0.75, 0.75, 0.8, 1.8, -2.0 + 0.005
+    mesh_object("Mirror", [(x, y0, z0), (x, y1, z0), (x, y1, z1), (x, y0, z1)], [(0, 1, 2, 3)], [mirror])
+    box("Box", (0.8, 0.6, 0.7), (0.7, -0.6, 0.0), 25.0, boxm)
+    lamp("AreaLamp", 'AREA', (0.3, 0.5, 2.45), energy=150.0, shape='RECTANGLE', size=1.0, size_y=0.6,
+         color=(1.0, 0.95, 0.88))
+    camera((1.85, -1.85, 1.6), (78.0, 0.0, 45.0), lens=18.0)
+    save("mirror_room.blend")
+
+
 if __name__ == "__main__":
     import sys
     only = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     for name, fn in (("cornell_box", make_cornell), ("subsurf_room", make_subsurf_room),
-                     ("animated_room", make_animated_room), ("interior_room", make_interior_room)):
+                     ("animated_room", make_animated_room), ("interior_room", make_interior_room),
+                     ("window_room", make_window_room), ("mirror_room", make_mirror_room)):
         if not only or name in only:
             fn()

@@ -505,3 +505,225 @@ def test_open_meshes_are_information_not_a_warning(addon, plane_and_lamp):
     p = scene.radiosity
     assert "open" not in p.last_warnings and "manifold" not in p.last_warnings
     assert "both sides of open meshes or ones with flipped faces (Plane, Flipped)" in p.last_effects
+
+
+# ----------------------------------------------------------------------------- material lobes
+def shaded_plane(shader, **inputs):
+    """A plane whose material is one `shader` node (bl_idname) with `inputs` set, into the output;
+    returns (material, node)."""
+    bpy.ops.mesh.primitive_plane_add()
+    m = bpy.data.materials.new(shader)
+    m.use_nodes = True
+    nt = m.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    node = nt.nodes.new(shader)
+    for key, value in inputs.items():
+        node.inputs[key].default_value = value
+    nt.links.new(node.outputs[0], out.inputs["Surface"])
+    bpy.context.object.data.materials.append(m)
+    return m, node
+
+
+def exported(export, m):
+    s = export.export_scene()
+    return s.materials[s.material_index(m.name)]
+
+
+def test_transparent_glass_and_glossy_become_their_lobes(export, empty_scene):
+    clear, _ = shaded_plane("ShaderNodeBsdfTransparent", Color=(0.9, 0.92, 0.5, 1))
+    glass, _ = shaded_plane("ShaderNodeBsdfGlass", Color=(0.8, 0.9, 1.0, 1), IOR=1.5, Roughness=0.0)
+    frosted, _ = shaded_plane("ShaderNodeBsdfGlass", Color=(1, 1, 1, 1), Roughness=0.3)
+    mirror, _ = shaded_plane("ShaderNodeBsdfGlossy", Color=(0.9, 0.8, 0.7, 1), Roughness=0.05)
+    c, g, f, s = (exported(export, m) for m in (clear, glass, frosted, mirror))
+    assert c.transmittance == pytest.approx((0.9, 0.92, 0.5)) and c.reflectance == (0, 0, 0) and not c.notes
+    assert g.glass == pytest.approx((0.8, 0.9, 1.0)) and g.ior == pytest.approx(1.5) and g.transmittance == (0, 0, 0)
+    assert export.FROSTED in f.notes and export.FROSTED not in g.notes
+    assert s.specular == pytest.approx((0.9, 0.8, 0.7)) and s.roughness == pytest.approx(0.05)
+    assert s.reflectance == (0, 0, 0) and s.glass == (0, 0, 0)
+    assert not any(w for m in (c, g, f, s) for w in m.warnings)
+
+
+def test_principled_splits_into_diffuse_metal_and_glass(export, empty_scene):
+    """Blender 3.4's Principled BSDF: diffuse C (1 - m)(1 - t), metal C m, glass C t (1 - m)."""
+    C = np.array((0.8, 0.6, 0.4))
+    metal, _ = shaded_plane("ShaderNodeBsdfPrincipled", **{"Base Color": (*C, 1), "Metallic": 0.75,
+                                                            "Roughness": 0.2})
+    glass, _ = shaded_plane("ShaderNodeBsdfPrincipled", **{"Base Color": (*C, 1), "Metallic": 0.25,
+                                                            "Transmission": 0.6, "IOR": 1.5, "Roughness": 0.0})
+    m, g = exported(export, metal), exported(export, glass)
+    np.testing.assert_allclose(m.reflectance, C * 0.25, rtol=1e-6)
+    np.testing.assert_allclose(m.specular, C * 0.75, rtol=1e-6)
+    assert m.roughness == pytest.approx(0.2) and m.glass == (0, 0, 0)
+    np.testing.assert_allclose(g.reflectance, C * 0.75 * 0.4, rtol=1e-6)
+    np.testing.assert_allclose(g.glass, C * 0.6 * 0.75, rtol=1e-6)
+    np.testing.assert_allclose(g.specular, C * 0.25, rtol=1e-6)
+    assert g.ior == pytest.approx(1.5) and export.FROSTED not in g.notes
+    # its default Specular 0.5 reflects off the dielectric part: named, not simulated
+    assert export.SPECULAR_LAYER in m.notes and export.SPECULAR_LAYER in g.notes
+    assert not any("diffuse loss" in w for w in m.warnings + g.warnings)
+
+
+def test_principled_alpha_mixes_every_lobe_with_a_transparent_one(export, empty_scene):
+    C = np.array((0.5, 0.4, 0.3))
+    mat, _ = shaded_plane("ShaderNodeBsdfPrincipled", **{"Base Color": (*C, 1), "Metallic": 0.5, "Alpha": 0.3,
+                                                          "Emission": (1, 1, 1, 1), "Emission Strength": 2.0})
+    m = exported(export, mat)
+    np.testing.assert_allclose(m.reflectance, C * 0.5 * 0.3, rtol=1e-6)
+    np.testing.assert_allclose(m.specular, C * 0.5 * 0.3, rtol=1e-6)
+    np.testing.assert_allclose(m.transmittance, (0.7, 0.7, 0.7), rtol=1e-6)
+    np.testing.assert_allclose(m.emission, (0.6, 0.6, 0.6), rtol=1e-6)
+
+
+def link_mix(mat, a, b, fac):
+    """Material `mat` becomes Mix Shader(fac, a, b) of two new nodes (bl_idname, inputs)."""
+    nt = mat.node_tree
+    out = next(n for n in nt.nodes if n.type == 'OUTPUT_MATERIAL')
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    mix.inputs["Fac"].default_value = fac
+    for socket, (shader, inputs) in zip((mix.inputs[1], mix.inputs[2]), (a, b)):
+        node = nt.nodes.new(shader)
+        for key, value in inputs.items():
+            node.inputs[key].default_value = value
+        nt.links.new(node.outputs[0], socket)
+    nt.links.new(mix.outputs[0], out.inputs["Surface"])
+    return mix
+
+
+def test_mix_weighs_every_lobe_by_its_factor_and_add_sums_them(export, empty_scene):
+    mixed, _ = shaded_plane("ShaderNodeBsdfDiffuse")
+    link_mix(mixed, ("ShaderNodeBsdfTransparent", {"Color": (1, 1, 1, 1)}),
+             ("ShaderNodeBsdfDiffuse", {"Color": (0.8, 0.4, 0.2, 1)}), 0.25)
+    added, node = shaded_plane("ShaderNodeAddShader")
+    nt = added.node_tree
+    for socket, (shader, colour, roughness) in zip(node.inputs, (("ShaderNodeBsdfDiffuse", (0.3, 0.3, 0.3, 1), 0.0),
+                                                                 ("ShaderNodeBsdfGlossy", (0.5, 0.5, 0.5, 1), 0.1))):
+        n = nt.nodes.new(shader)
+        n.inputs["Color"].default_value = colour
+        n.inputs["Roughness"].default_value = roughness
+        nt.links.new(n.outputs[0], socket)
+    m, a = exported(export, mixed), exported(export, added)
+    np.testing.assert_allclose(m.transmittance, (0.75, 0.75, 0.75), rtol=1e-6)
+    np.testing.assert_allclose(m.reflectance, (0.2, 0.1, 0.05), rtol=1e-6)
+    np.testing.assert_allclose(a.reflectance, (0.3, 0.3, 0.3), rtol=1e-6)
+    np.testing.assert_allclose(a.specular, (0.5, 0.5, 0.5), rtol=1e-6)
+    assert a.roughness == pytest.approx(0.1)        # the specular lobe's own, not averaged with nothing
+
+
+def test_lobes_that_would_make_light_are_scaled_to_one_and_named(export, empty_scene):
+    added, node = shaded_plane("ShaderNodeAddShader")
+    nt = added.node_tree
+    for socket, shader in zip(node.inputs, ("ShaderNodeBsdfDiffuse", "ShaderNodeBsdfTransparent")):
+        n = nt.nodes.new(shader)
+        n.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1)
+        nt.links.new(n.outputs[0], socket)
+    a = exported(export, added)
+    total = np.array(a.reflectance) + a.transmittance + a.glass + a.specular
+    np.testing.assert_allclose(total, (1, 1, 1), rtol=1e-9)
+    np.testing.assert_allclose(a.reflectance, a.transmittance, rtol=1e-9)
+    assert any("scaled down to one" in w for w in a.warnings)
+
+
+def test_a_mix_factor_from_an_image_alpha_goes_as_its_mean(export, empty_scene):
+    """Leaves: Mix(Transparent, Diffuse) by an image's alpha. The engine takes one value a material:
+    the alpha's mean, named as approximated."""
+    mixed, _ = shaded_plane("ShaderNodeBsdfDiffuse")
+    mix = link_mix(mixed, ("ShaderNodeBsdfTransparent", {"Color": (1, 1, 1, 1)}),
+                   ("ShaderNodeBsdfDiffuse", {"Color": (0.5, 0.5, 0.5, 1)}), 1.0)
+    image = bpy.data.images.new("Leaf", 2, 2, alpha=True, float_buffer=True)
+    image.pixels.foreach_set(np.array([[1, 1, 1, a] for a in (0.0, 1.0, 0.25, 0.75)], np.float32).ravel())
+    tex = mixed.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    mixed.node_tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
+    m = exported(export, mixed)
+    np.testing.assert_allclose(m.transmittance, (0.5, 0.5, 0.5), rtol=1e-6)
+    np.testing.assert_allclose(m.reflectance, (0.25, 0.25, 0.25), rtol=1e-6)
+    assert export.MEAN_FACTOR in m.notes
+
+
+def test_the_engine_takes_the_lobes_and_a_lobe_change_is_a_material_change(addon, open_sample):
+    """to_engine passes every lobe to Scene.add_material; a live update sends a pane's new colour
+    as Solver.set_material with all of them."""
+    from dataclasses import replace
+    open_sample("window_room")
+    export, engine = addon.export, addon.engine.load_engine()
+    a = export.export_scene()
+    export.to_engine(a, engine)          # validated by the engine: lobes in range
+    i = a.material_index("Pane")
+    b = replace(a, materials=list(a.materials))
+    b.materials[i] = replace(a.materials[i], transmittance=(0.5, 0.5, 0.5))
+    calls = addon.scene_diff.diff_exports(a, b, engine)
+    assert calls == [("set_material", (i, a.materials[i].reflectance, *b.materials[i].lobes().values()))]
+    assert calls[0][1][3] == (0.5, 0.5, 0.5)
+
+
+# ----------------------------------------------------------------------------- effect plan rows
+OPTICS_ROWS = {"Transmission", "Refraction (direction kept)", "Frosted glass", "Mix factors as means", "Mirrors",
+               "Glass reflections", "Principled specular"}
+
+
+def test_effects_name_the_materials_and_objects_that_call_for_them(addon, open_sample):
+    effects = addon.effects
+    open_sample("window_room")
+    rows = {short: (kind, detail) for kind, short, detail in effects.items(addon.export.export_scene())}
+    assert rows["Transmission"] == (effects.SIMULATED, "light through transparent and glass surfaces, filtered "
+                                                      "by their colour (Pane on Pane)")
+    assert not OPTICS_ROWS - {"Transmission"} & set(rows)
+    open_sample("mirror_room")
+    rows = {short: (kind, detail) for kind, short, detail in effects.items(addon.export.export_scene())}
+    assert rows["Mirrors"][0] == effects.LEFT_OUT and rows["Mirrors"][1].endswith("(Mirror on Mirror)")
+    assert not OPTICS_ROWS - {"Mirrors"} & set(rows)
+
+
+def test_a_scene_without_glass_or_mirrors_lists_no_optics(addon, open_sample):
+    open_sample("cornell_box")
+    listed = addon.effects.items(addon.export.export_scene())
+    assert not OPTICS_ROWS & {short for _, short, _ in listed}
+    sentence = addon.effects.sentence(listed)
+    assert "transmission" not in sentence.lower() and "mirror" not in sentence.lower()
+    assert sentence.endswith("left out: volumes and subsurface scattering (a diffuse bake)")
+
+
+def test_glass_metal_and_alpha_rows_fit_the_sidebar(addon, empty_scene):
+    """Every optics row, each naming its material and object; the panel lists the short words as an
+    icon button's text (test_panel_fit.leaf), which must fit uncut."""
+    import test_panel_fit as panel
+    export, effects = addon.export, addon.effects
+    shaded_plane("ShaderNodeBsdfGlass", Roughness=0.3)
+    shaded_plane("ShaderNodeBsdfPrincipled", Metallic=0.5)
+    leaves, _ = shaded_plane("ShaderNodeBsdfDiffuse")
+    mix = link_mix(leaves, ("ShaderNodeBsdfTransparent", {}), ("ShaderNodeBsdfDiffuse", {}), 1.0)
+    tex = leaves.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.new("Leaf", 2, 2, alpha=True)
+    tex.image.pixels.foreach_set(np.tile(np.float32([1, 1, 1, 0.5]), 4))
+    leaves.node_tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
+    listed = effects.items(export.export_scene())
+    rows = {short: (kind, detail) for kind, short, detail in listed}
+    assert OPTICS_ROWS <= set(rows)
+    assert rows["Refraction (direction kept)"] == (effects.APPROXIMATED, "glass passing light on straight, not "
+                                                   "bent (ShaderNodeBsdfGlass on Plane)")
+    assert rows["Transmission"][1].endswith("(ShaderNodeBsdfGlass on Plane; ShaderNodeBsdfDiffuse on Plane.002)")
+    assert rows["Principled specular"][0] == effects.LEFT_OUT and rows["Glass reflections"][0] == effects.LEFT_OUT
+    assert rows["Mix factors as means"][1].endswith("(ShaderNodeBsdfDiffuse on Plane.002)")
+    cut = []
+    for short in rows:
+        panel.fits(short, panel.WIDTHS["sidebar"] - panel.PAD - panel.CLIP - panel.ICON, "effects", cut)
+    assert not cut, cut
+
+
+def test_a_textured_metal_keeps_its_texture_diffuse_and_its_mean_as_mirror(export, empty_scene):
+    """A Principled base colour from an image: the diffuse lobe varies per corner (the texture, times
+    1 - metallic), the metal lobe, one colour a material, is the image's mean times metallic."""
+    mat, node = shaded_plane("ShaderNodeBsdfPrincipled", Metallic=0.5)
+    image = bpy.data.images.new("Base", 2, 2, float_buffer=True)
+    image.pixels.foreach_set(np.array([[0.2, 0.4, 0.6, 1], [0.6, 0.4, 0.2, 1]] * 2, np.float32).ravel())
+    tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = image
+    tex.interpolation = 'Closest'          # each corner reads its own texel
+    mat.node_tree.links.new(tex.outputs["Color"], node.inputs["Base Color"])
+    s = export.export_scene()
+    m = s.materials[s.material_index(mat.name)]
+    np.testing.assert_allclose(m.specular, (0.2, 0.2, 0.2), rtol=1e-6)
+    np.testing.assert_allclose(m.reflectance, (0.2, 0.2, 0.2), rtol=1e-6)
+    corners = s.mesh("Plane").corner_reflectance
+    np.testing.assert_allclose(np.sort(corners[:, 0]), (0.1, 0.1, 0.3, 0.3), rtol=1e-6)

@@ -20,3 +20,15 @@ def unbiased(scene, samples, diffuse_bounces, seed):
     cy.transmission_bounces = 0
     cy.transparent_max_bounces = diffuse_bounces
     cy.seed = seed
+
+
+def with_optics(scene, bounces=64):
+    """unbiased() for scenes whose light passes through panes or off mirrors (the optics samples):
+    glossy and transmission bounces raised, caustics allowed and glossy not blurred, so that light
+    carried by a mirror or a pane to a diffuse surface is all there."""
+    cy = scene.cycles
+    cy.glossy_bounces = bounces
+    cy.transmission_bounces = bounces
+    cy.caustics_reflective = True
+    cy.caustics_refractive = True
+    cy.blur_glossy = 0.0

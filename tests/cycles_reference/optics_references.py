@@ -1,0 +1,74 @@
+"""Cycles corner references for the optics samples (window_room, mirror_room) and their share variants.
+
+    blender -b --factory-startup --python tests/cycles_reference/optics_references.py [-- --corner-samples N] [--only NAME]
+        [--seed S]
+
+Writes tests/cycles_reference/optics/<name>.npz, one per entry of VARIANTS: the sample as it is, and
+the sample with its pane made opaque or its mirror black (a Diffuse BSDF of black, `blacken`), whose
+difference is the share of the light the pane or the mirror carries. Settings: make_references'
+(cycles_settings.unbiased, 64 bounces) plus cycles_settings.with_optics (glossy and transmission
+bounces on, caustics allowed, no glossy blur). Layout: make_references' "<name>:corner" and
+"<name>:matrix_world" per mesh object, plus "samples_corner", "seconds_corner", "blender_version".
+The files sit in their own folder: test_references.py checks the sample scenes' own files, and a
+variant has no .blend of its own. --seed S (noise estimates) writes <name>_seedS.npz beside them.
+"""
+import os
+import sys
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+import cycles_settings  # noqa: E402
+import make_references  # noqa: E402
+
+OUT = os.path.join(HERE, "optics")
+# reference name -> (sample scene, the material made black or None)
+VARIANTS = {"window_room": ("window_room", None), "window_room_opaque": ("window_room", "Pane"),
+            "mirror_room": ("mirror_room", None), "mirror_room_black": ("mirror_room", "Mirror")}
+
+
+def blacken(material):
+    """Material `material` (a bpy Material) as a black Diffuse BSDF: an opaque pane, a black mirror."""
+    nt = material.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    shader = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    shader.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    nt.links.new(shader.outputs[0], out.inputs["Surface"])
+
+
+def path_of(name, seed=0):
+    return os.path.join(OUT, name + (f"_seed{seed}" if seed else "") + ".npz")
+
+
+def run(name, samples_corner, seed=0):
+    scene_name, black = VARIANTS[name]
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(make_references.SAMPLES_DIR, scene_name + ".blend"))
+    sc = bpy.context.scene
+    make_references.configure(sc, samples_corner, seed)
+    cycles_settings.with_optics(sc)
+    if black is not None:
+        blacken(bpy.data.materials[black])
+    meshes = sorted([o for o in sc.objects if o.type == 'MESH'], key=lambda o: o.name)
+    data, note = make_references.bake_corner(sc, meshes, samples_corner)
+    data["blender_version"] = np.array(bpy.app.version_string)
+    os.makedirs(OUT, exist_ok=True)
+    out = path_of(name, seed)
+    np.savez_compressed(out, **data)
+    print(f"REF optics/{os.path.basename(out)}: {note}, {os.path.getsize(out) / 1024:.0f} KiB", flush=True)
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    samples = int(argv[argv.index("--corner-samples") + 1]) if "--corner-samples" in argv else 65536
+    only = argv[argv.index("--only") + 1] if "--only" in argv else None
+    seed = int(argv[argv.index("--seed") + 1]) if "--seed" in argv else 0
+    for name in VARIANTS:
+        if only is None or only == name:
+            run(name, samples, seed)
+
+
+if __name__ == "__main__":
+    main()
