@@ -72,6 +72,7 @@ class Crossings {
     std::array<float, 3> rgb;
   };
   struct Ray {
+    Ray() {}  // the layers stay unwritten until crossed: a batch makes its Crossings often
     int count = 0;
     std::array<Layer, kMaxLayers> layer;
   };
