@@ -7,8 +7,9 @@ namespace radiosity {
 
 double fresnel_reflectance(double cos_i, double n) {
   if (n == 1.0) return 0.0;
-  cos_i = std::min(std::fabs(cos_i), 1.0);
-  if (cos_i == 0.0) return 1.0;  // grazing: all of it
+  cos_i = std::fabs(cos_i);
+  if (!(cos_i > 0.0)) return 1.0;  // grazing: all of it (also for a degenerate triangle's normal)
+  cos_i = std::min(cos_i, 1.0);
   double cos_t = std::sqrt(1.0 - (1.0 - cos_i * cos_i) / (n * n));  // n > 1: entering, always refracts
   double rs = (cos_i - n * cos_t) / (cos_i + n * cos_t);
   double rp = (cos_t - n * cos_i) / (cos_t + n * cos_i);

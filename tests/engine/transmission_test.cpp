@@ -132,6 +132,7 @@ TEST(Transmission, FresnelAtNormalIncidenceAndGrazing) {
   double n = 1.5, r0 = (n - 1) * (n - 1) / ((n + 1) * (n + 1));
   EXPECT_NEAR(fresnel_reflectance(1.0, n), r0, 1e-15);
   EXPECT_EQ(fresnel_reflectance(0.0, n), 1.0);
+  EXPECT_EQ(fresnel_reflectance(std::nan(""), n), 1.0);  // a degenerate triangle's normal: nothing passes
   EXPECT_EQ(fresnel_reflectance(0.3, 1.0), 0.0);
   // A pane passes (1 - R) / (1 + R) (both faces, light back and forth between them); one face 1 - R.
   Material glass;
