@@ -215,6 +215,25 @@ def test_updates_of_a_scene_with_panes_are_full_solves():
     assert stats["restart"] == "transmission: updates in scenes with glass are full solves"
     fresh, _ = floor_under([(0.5, 3.0, dict(transmittance=(0.4, 0.4, 0.4)))], lamp)
     np.testing.assert_array_equal(solver.refined(floor)[1], fresh.refined(floor)[1])
+    # The pane moved aside, uncovering part of the floor.
+    def placed(x):
+        move = np.eye(4)
+        move[:3, 3] = (x, 0.0, 0.5)
+        return move
+
+    def pane_at(x):
+        scene = engine.Scene()
+        floor = square(scene, 0.0, scene.add_material((RHO, RHO, RHO)))
+        pane = square(scene, 0.0, scene.add_material((0.0, 0.0, 0.0), transmittance=tau), half=3.0, dynamic=True,
+                      transform=placed(x))
+        lamp(scene)
+        solver = engine.Solver(scene, settings())
+        solver.solve()
+        return solver, floor, pane
+    solver, floor, pane = pane_at(0.0)
+    solver.set_transform(pane, placed(3.5))
+    assert solver.update()["restart"] == "transmission: updates in scenes with glass are full solves"
+    np.testing.assert_array_equal(solver.refined(floor)[1], pane_at(3.5)[0].refined(floor)[1])
     # An opaque scene whose material takes a lobe beyond the diffuse one: the same.
     solver, floor = floor_under([(0.5, 3.0, {})], lamp)
     solver.set_material(1, (0.0, 0.0, 0.0), transmittance=tau)
