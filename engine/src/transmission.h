@@ -47,8 +47,8 @@ struct Transmission {
 // they let through together.
 class Crossings {
  public:
-  // More hits on panes than this on one ray block it (a hit on an edge counts twice): what so many
-  // would pass is negligible, and the list stays a fixed size per ray.
+  // More hits on panes than this on one ray block it (a hit on an edge counts twice): a ray through
+  // eight panes or more is left dark, so the list stays a fixed size per ray.
   static constexpr int kMaxLayers = 16;
 
   explicit Crossings(unsigned capacity) : rays_(capacity) {}
