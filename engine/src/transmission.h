@@ -48,7 +48,7 @@ struct Transmission {
 class Crossings {
  public:
   // More hits on panes than this on one ray block it (a hit on an edge counts twice): a ray through
-  // eight panes or more is left dark, so the list stays a fixed size per ray.
+  // more than eight panes may be left dark, so the list stays a fixed size per ray.
   static constexpr int kMaxLayers = 16;
 
   explicit Crossings(unsigned capacity) : rays_(capacity) {}
