@@ -400,6 +400,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
              d["injected"] = b.injected;
              d["unshot"] = b.unshot;
              d["absorbed"] = b.absorbed;
+             d["transmitted"] = b.transmitted;
              return d;
            })
       .def("corner_radiance",

@@ -135,9 +135,15 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
 
   stats.shoot_residual = stats.shoot_seconds = 0.0;
   stats.restart.clear();
+  // Light through panes travels along the rays that carry it, which an update's changed rays do not
+  // follow: a scene that lets light through, before or after the change, is solved afresh.
+  bool optics = std::any_of(changes.materials.begin(), changes.materials.end(),
+                            [&](const auto& c) { return optics_differ(scene.materials[c.first], c.second); });
+  bool transmits = optics || vis->transmits();
   if (!injected) {  // nothing gathered yet: the first solve will see the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
     for (const auto& [i, m] : changes.materials) scene.materials[i] = m;
+    if (optics) take_optics();
     for (const auto& [i, l] : changes.lamps) scene.lamps[i] = l;
     if (changes.world) scene.world = *changes.world;
     return done();
@@ -161,11 +167,15 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   for (const auto& [i, m] : changes.materials) change_material(i, m);
   for (const auto& [o, m] : changes.meshes) zones.push_back(change_object(o, m, placed[o]));
   keep_near_direct(objects, zones);
-  if (light > 0 && !(injected_power > kRestartBelow * light)) {
-    restart();
-    touched.assign(mesh.points.size(), 1);
+  if (optics) take_optics();
+  if (light > 0 && !(injected_power > kRestartBelow * light))
     stats.restart = "the change left " + std::to_string(int(std::round(100 * injected_power / light))) +
                     "% of the light (under " + std::to_string(int(100 * kRestartBelow)) + "%)";
+  else if (transmits)
+    stats.restart = "transmission: updates in scenes with glass are full solves";
+  if (!stats.restart.empty()) {
+    restart();
+    touched.assign(mesh.points.size(), 1);
   }
   stats.touched_points = std::count(touched.begin(), touched.end(), 1);
   auto shooting = std::chrono::steady_clock::now();

@@ -58,11 +58,18 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
   if (changed_) {
     count_ = changed_->keep_changed(rays_, into_, carried_, count_, coincident(), traced_);
   } else {
-    vis_.occluded(rays_, count_, coincident());
+    if (vis_.transmits() && !crossings_) crossings_ = std::make_unique<Crossings>(kCapacity);
+    vis_.occluded(rays_, count_, coincident(), crossings_.get());
     traced_ += count_;
   }
-  for (unsigned i = 0; i < count_; ++i)
-    if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
+  if (!crossings_) {
+    for (unsigned i = 0; i < count_; ++i)
+      if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
+  } else {
+    double eps = vis_.epsilon();
+    for (unsigned i = 0; i < count_; ++i)
+      if (rays_[i].tfar >= 0) *into_[i] += carried_[i] * crossings_->through(rays_[i], eps);
+  }
   count_ = 0;
   if (changed_)  // keep_changed moved rays to other slots: each gets its slot's id back
     for (unsigned k = 0; k < pushed; ++k) rays_[k].id = k;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <iterator>
+#include <memory>
 
 namespace radiosity {
 
@@ -29,7 +30,9 @@ struct RayEnd {
 };
 
 // Collects occlusion rays with the irradiance each carries to one side of a receiving point, traces them in
-// streams and adds what arrives unoccluded to the receivers' accumulators (front and back side).
+// streams and adds what arrives unoccluded to the receivers' accumulators (front and back side). In a
+// scene where some patch lets light through, a ray goes on through such patches and adds what they
+// let through (Crossings); else rays are traced and added as if no pane could exist.
 //
 // With ChangedRays, a batch carries only what one object's last move changed (changed_rays.h): it
 // leaves out, as they come, the rays that cannot have changed, and has the rest sifted and traced
@@ -135,6 +138,7 @@ class OcclusionBatch {
   int target_patch_[kCapacity];
   float zone_start_[kCapacity];
   bool coincident_ = false;  // some ray of the batch has them
+  std::unique_ptr<Crossings> crossings_;  // made on the first flush that needs it
   const Coincident coincident_rays_{target_, target_patch_, zone_start_};
   unsigned count_ = 0;
   long long traced_ = 0;

@@ -276,9 +276,10 @@ int enclosed_side(const PatchMesh& pm, const MeshDesc& mesh, const ObjectPatches
   return volume > 0 ? 1 : 0;
 }
 
-// Gives the object's points its index, and where it is closed its side and a sphere round it.
+// Gives the object's points its index and enclosed side, and where it is closed a sphere round it.
 void enclose(PatchMesh& pm, ObjectPatches& obj, int object) {
-  for (int p = obj.point_begin; p < obj.point_end; ++p) pm.points[p].object = object;
+  for (int p = obj.point_begin; p < obj.point_end; ++p)
+    pm.points[p].object = object, pm.points[p].enclosed_side = obj.enclosed_side;
   if (obj.enclosed_side < 0) return;
   dvec3 lo(INFINITY), hi(-INFINITY);
   widen_to(pm, obj, lo, hi);
@@ -286,8 +287,7 @@ void enclose(PatchMesh& pm, ObjectPatches& obj, int object) {
   for (int v = obj.vertex_begin; v < obj.vertex_end; ++v)
     obj.enclosure.radius = std::max(obj.enclosure.radius, glm::length(pm.vertices[v] - obj.enclosure.centre));
   obj.enclosure.radius *= 1 + 1e-9;
-  for (int p = obj.point_begin; p < obj.point_end; ++p)
-    pm.points[p].enclosed_side = obj.enclosed_side, pm.points[p].enclosure = obj.enclosure;
+  for (int p = obj.point_begin; p < obj.point_end; ++p) pm.points[p].enclosure = obj.enclosure;
 }
 
 // For each input face corner, the patch corner at the same place.
@@ -404,9 +404,23 @@ void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>
         std::fill_n(apart.begin() + 4 * (q - obj.patch_begin), 4, face);
     }
   make_points(pm, placed.normals, apart, 4 * obj.patch_begin, obj);
-  if (obj.patch_end > obj.patch_begin) obj.enclosed_side = enclosed_side(pm, mesh, obj);
-  enclose(pm, obj, int(pm.objects.size()));
+  if (obj.patch_end > obj.patch_begin) obj.closed_side = enclosed_side(pm, mesh, obj);
   pm.objects.push_back(std::move(obj));
+  take_optics(pm, int(pm.objects.size()) - 1, materials);
+}
+
+void take_optics(PatchMesh& pm, int object, const std::vector<Material>& materials) {
+  ObjectPatches& obj = pm.objects[object];
+  auto of = [&](int q) { return Transmission(materials[pm.patches[q].material], obj.closed_side < 0); };
+  bool passes = false;
+  for (int q = obj.patch_begin; q < obj.patch_end && !passes; ++q) passes = of(q).passes();
+  if (passes || !pm.transmission.empty()) {
+    pm.transmission.resize(pm.patches.size());
+    for (int q = obj.patch_begin; q < obj.patch_end; ++q) pm.transmission[q] = of(q);
+  }
+  // Light passes into a closed glass object: its inside is lit from outside.
+  obj.enclosed_side = passes ? -1 : obj.closed_side;
+  enclose(pm, obj, object);
 }
 
 }  // namespace radiosity

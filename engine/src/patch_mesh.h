@@ -6,6 +6,7 @@
 #include "radiosity/scene.h"
 #include "radiosity/settings.h"
 #include "refine.h"
+#include "transmission.h"
 
 #include <array>
 #include <vector>
@@ -51,9 +52,11 @@ struct ObjectPatches {
   std::vector<QuadCell> cells;   // and the light's splits of those quads (split_cells); empty: none
   int degenerate = 0;     // zero-area patches
   // A closed surface (every edge of the input mesh shared by two faces, wound alike): the side of
-  // its patches that faces its inside (0 front, 1 back), else -1; and a sphere round it. Nothing
-  // outside the sphere lights that side, nor is lit from it: gathers skip those rays
-  // (gather.cpp; lamps and sky, lights.cpp), which its own surface would block.
+  // its patches that faces its inside (0 front, 1 back), else -1.
+  int closed_side = -1;
+  // closed_side where no face lets light through, else -1; and a sphere round it. Nothing outside
+  // the sphere lights that side, nor is lit from it: gathers skip those rays (gather.cpp; lamps
+  // and sky, lights.cpp), which its own surface would block.
   int enclosed_side = -1;
   Sphere enclosure;
   bool mirrored = false;  // transform flips handedness
@@ -80,6 +83,8 @@ struct PatchMesh {
   std::vector<double> onward;  // per slot: CornerView::onward
   std::vector<dvec3> reflectance;  // per slot: the material's, or MeshDesc::corner_reflectance there
   std::vector<dvec3> emission;     // per slot: the material's, or MeshDesc::corner_emission there
+  // Per patch: what it lets through (transmission.h); empty while no patch lets light through.
+  std::vector<Transmission> transmission;
   std::vector<ObjectPatches> objects;  // one per SceneDesc mesh
   int degenerate_patches = 0;
 
@@ -101,6 +106,10 @@ void check_patch_budget(const PatchMesh& pm, const std::vector<MeshDesc>& meshes
 // Appends one more object (the next index), in the frame and at the sizes `pm` was built with.
 void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>& materials,
                 const Settings& settings, std::vector<QuadCell> cells = {});
+
+// The object's Transmission, closed_side and enclosed_side from its patches' materials (as added,
+// or after a material's lobes change).
+void take_optics(PatchMesh& pm, int object, const std::vector<Material>& materials);
 
 // A patch's area and unit normal from its corners (half the cross product of its diagonals: exact
 // for a planar quad); both zero where it is degenerate.

@@ -477,14 +477,28 @@ PowerBalance Solver::power_balance() const {
   b.injected = s.injected_power;
   for (size_t p = 0; p < s.mesh.patches.size(); ++p) {
     const Patch& patch = s.mesh.patches[p];
+    // What passes through the patch. Glass passes less at grazing angles than head on, which is
+    // what it is counted at here: for glass, the balance is approximate.
+    dvec3 passes(0.0);
+    if (!s.mesh.transmission.empty()) {
+      std::array<float, 3> t = s.mesh.transmission[p].at(1.0);
+      passes = dvec3(t[0], t[1], t[2]);
+    }
     for (int c = 0; c < 4; ++c) {
       int pt = patch.point[c];
-      dvec3 absorb = dvec3(1.0) - s.mesh.reflectance[4 * p + c];
+      dvec3 absorb = dvec3(1.0) - s.mesh.reflectance[4 * p + c] - passes;
       b.unshot += 0.25 * patch.area * channel_sum(s.unshot[p][c * 2] + s.unshot[p][c * 2 + 1]);
       b.absorbed += 0.25 * patch.area * channel_sum(absorb * (s.front[pt] + s.back[pt]));
+      dvec3 direct = s.front[pt] - s.reflected_front[pt] + s.back[pt] - s.reflected_back[pt];
+      b.transmitted += 0.25 * patch.area * channel_sum(passes * direct);
     }
   }
   return b;
+}
+
+void Solver::Impl::take_optics() {
+  for (size_t o = 0; o < mesh.objects.size(); ++o) radiosity::take_optics(mesh, int(o), scene.materials);
+  vis->set_optics(mesh);
 }
 
 std::vector<float> Solver::corner_radiance(int object, bool exact_near_direct) const {

@@ -168,6 +168,9 @@ struct Solver::Impl {
   void change_lamp(int index, const Lamp& lamp);
   bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
   void change_material(int index, const Material& material);
+  // After a material's lobes other than reflectance and emission change: every object's
+  // Transmission (PatchMesh) and the panes Visibility traces.
+  void take_optics();
   Zone change_object(int object, const MeshDesc& mesh, const PlacedObject& placed);  // where it was and is
   // change_object's steps, in their order, on what they share.
   struct ObjectChange;

@@ -3,6 +3,8 @@
 #include "dispatch.h"
 #include "parallel.h"
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,6 +16,7 @@ namespace {
 
 constexpr double kRelativeEpsilon = 1e-5;
 
+// The object's quads, in its patches' corner order (so Embree's primitive ids count its patches).
 RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatches& obj) {
   RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
   int count = obj.patch_end - obj.patch_begin;
@@ -29,8 +32,48 @@ RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatc
     for (int k = 0; k < 3; ++k) vert[3 * (v - lo) + k] = float(mesh.vertices[v][k]);
   for (int p = obj.patch_begin; p < obj.patch_end; ++p)
     for (int c = 0; c < 4; ++c) index[4 * (p - obj.patch_begin) + c] = unsigned(mesh.patches[p].vertex[c] - lo);
-  rtcCommitGeometry(geom);
-  return geom;
+  return geom;  // Visibility::take_panes commits it
+}
+
+// What a trace's hits are filtered by: an object left out (occluded_without), and Coincident. Every
+// trace passes one: the panes' filter reads it.
+struct FilterContext {
+  RTCIntersectContext context;  // first: Embree hands the filter a pointer to it
+  const Visibility* vis = nullptr;
+  unsigned excluded = RTC_INVALID_GEOMETRY_ID;  // instance geometry id in the top-level scene
+  int only_object = -1;                         // the object traced alone (occluded_by)
+  const Coincident* coincident = nullptr;
+  Crossings* crossings = nullptr;  // rays carry light on through panes (Visibility::occluded)
+};
+
+// Whether a hit is passed over: it is on the object left out, or on a surface a Coincident ray's
+// target lies under or on that the ray must see through.
+bool rejected(const FilterContext& f, const RTCFilterFunctionNArguments* args, unsigned i) {
+  unsigned instance = RTCHitN_instID(args->hit, args->N, i, 0);
+  if (instance != RTC_INVALID_GEOMETRY_ID && instance == f.excluded) return true;
+  if (!f.coincident) return false;
+  unsigned id = RTCRayN_id(args->ray, args->N, i);
+  int target = f.coincident->target_object[id];
+  // The ray's tfar is the hit's distance here (instances are not transformed: the same units).
+  if (target < 0 || RTCRayN_tfar(args->ray, args->N, i) < f.coincident->zone_start[id]) return false;
+  int object = f.only_object >= 0 ? f.only_object
+               : f.vis->object_of(instance != RTC_INVALID_GEOMETRY_ID ? instance : RTCHitN_geomID(args->hit, args->N, i));
+  if (object < target) return false;
+  int patch = f.coincident->target_patch[id];
+  return object > target || patch < 0 || f.vis->patch_begin(object) + int(RTCHitN_primID(args->hit, args->N, i)) >= patch;
+}
+
+void filter_hits(const RTCFilterFunctionNArguments* args) {
+  const FilterContext& f = *reinterpret_cast<const FilterContext*>(args->context);
+  for (unsigned i = 0; i < args->N; ++i)
+    if (args->valid[i] == -1 && rejected(f, args, i)) args->valid[i] = 0;
+}
+
+void trace(RTCScene scene, FilterContext& ctx, RTCRay* rays, unsigned count) {
+  if (ctx.crossings) ctx.crossings->clear(rays, count);
+  rtcInitIntersectContext(&ctx.context);
+  if (ctx.excluded != RTC_INVALID_GEOMETRY_ID || ctx.coincident) ctx.context.filter = filter_hits;
+  rtcOccluded1M(scene, &ctx.context, rays, count, sizeof(RTCRay));
 }
 
 }  // namespace
@@ -45,7 +88,71 @@ Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_o
   for (size_t o = 0; o < mesh.objects.size(); ++o)
     attach(mesh, o < dynamic_objects.size() && dynamic_objects[o], o >= visible.size() || visible[o]);
   rtcCommitScene(top_);
+  count_panes();
   find_coincident(mesh);
+}
+
+// The filter of quads some of which let light through. Embree runs it before the context's
+// filter (filter_hits), and what it passes over that one never sees: so it leaves out what that
+// one would, itself, or occluded_without would multiply in the panes of the object it leaves out.
+void Visibility::filter_panes(const RTCFilterFunctionNArguments* args) {
+  const FilterContext& f = *reinterpret_cast<const FilterContext*>(args->context);
+  if (!f.crossings) return;  // whether two places see each other: a pane is a wall
+  const Panes& panes = *static_cast<const Panes*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    if (rejected(f, args, i)) {
+      args->valid[i] = 0;
+      continue;
+    }
+    unsigned primitive = RTCHitN_primID(args->hit, args->N, i);
+    const Transmission& through = panes.patches[primitive];
+    if (!through.passes()) continue;  // an opaque patch of the object: the ray stops
+    dvec3 d(RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+            RTCRayN_dir_z(args->ray, args->N, i));
+    dvec3 n(RTCHitN_Ng_x(args->hit, args->N, i), RTCHitN_Ng_y(args->hit, args->N, i),
+            RTCHitN_Ng_z(args->hit, args->N, i));
+    std::array<float, 3> rgb = through.at(glm::dot(d, n) / std::sqrt(glm::dot(d, d) * glm::dot(n, n)));
+    // Too little passes in every channel to be worth tracing on for: the ray stops.
+    if (std::max({rgb[0], rgb[1], rgb[2]}) < 1e-4f) continue;
+    if (f.crossings->add(RTCRayN_id(args->ray, args->N, i), RTCRayN_tfar(args->ray, args->N, i), panes.object,
+                         panes.patch_begin + int(primitive), rgb))
+      args->valid[i] = 0;
+  }
+}
+
+void Visibility::take_panes(RTCGeometry quads, const PatchMesh& mesh, int object, std::unique_ptr<Panes>& panes) {
+  const ObjectPatches& obj = mesh.objects[object];
+  panes.reset();
+  auto begin = mesh.transmission.begin() + obj.patch_begin, end = mesh.transmission.begin() + obj.patch_end;
+  if (!mesh.transmission.empty() && std::any_of(begin, end, [](const Transmission& t) { return t.passes(); })) {
+    panes = std::make_unique<Panes>();
+    panes->object = object, panes->patch_begin = obj.patch_begin;
+    panes->patches.assign(begin, end);
+  }
+  // Opaque quads get no filter: their hits cost what they cost in a scene without panes.
+  rtcSetGeometryUserData(quads, panes.get());
+  rtcSetGeometryOccludedFilterFunction(quads, panes ? filter_panes : nullptr);
+  rtcCommitGeometry(quads);
+}
+
+void Visibility::count_panes() {
+  transmits_ = std::any_of(objects_.begin(), objects_.end(), [](const Object& o) { return o.panes[o.now] != nullptr; });
+}
+
+void Visibility::set_optics(const PatchMesh& mesh) {
+  for (size_t k = 0; k < objects_.size(); ++k) {
+    Object& o = objects_[k];
+    if (o.geometry == RTC_INVALID_GEOMETRY_ID) continue;
+    RTCGeometry quads = o.instance ? rtcGetGeometry(o.own[o.now], 0) : rtcGetGeometry(top_, o.geometry);
+    take_panes(quads, mesh, int(k), o.panes[o.now]);
+    if (o.instance) {
+      rtcCommitScene(o.own[o.now]);
+      rtcCommitGeometry(o.instance);
+    }
+  }
+  rtcCommitScene(top_);
+  count_panes();
 }
 
 void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
@@ -54,6 +161,7 @@ void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
   o.patch_begin = obj.patch_begin;  // even for none: object_of_patch searches them in order
   if (obj.patch_end == obj.patch_begin) return;
   RTCGeometry quads = make_quads(device_, mesh, obj);
+  take_panes(quads, mesh, int(objects_.size()) - 1, o.panes[0]);
   if (dynamic || !shown)
     make_instance(o, quads);
   else
@@ -70,6 +178,7 @@ void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
 void Visibility::add_object(const PatchMesh& mesh) {
   attach(mesh, true, false);
   rtcCommitScene(top_);
+  count_panes();
   find_coincident(mesh, dvec3(INFINITY), dvec3(-INFINITY));  // hidden: it lies on nothing, nor anything on it
 }
 
@@ -122,6 +231,7 @@ void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
   if (o.own[next]) rtcReleaseScene(o.own[next]);
   o.own[next] = new_object_scene();
   RTCGeometry quads = make_quads(device_, mesh, mesh.objects[object]);
+  take_panes(quads, mesh, object, o.panes[next]);
   rtcAttachGeometry(o.own[next], quads);
   rtcReleaseGeometry(quads);
   rtcCommitScene(o.own[next]);
@@ -134,6 +244,7 @@ void Visibility::move_object(int object, const PatchMesh& mesh, bool visible) {
     rtcDisableGeometry(o.instance);
   rtcCommitGeometry(o.instance);
   rtcCommitScene(top_);
+  count_panes();
   find_coincident(mesh, lo, hi);
   o.lo = dvec3(INFINITY), o.hi = dvec3(-INFINITY);
   widen_to(mesh, mesh.objects[object], o.lo, o.hi);
@@ -150,48 +261,6 @@ int Visibility::object_of_patch(int patch) const {
   return int(after - objects_.begin()) - 1;
 }
 
-namespace {
-
-// What a trace's hits are filtered by: an object left out (occluded_without), and Coincident.
-struct FilterContext {
-  RTCIntersectContext context;  // first: Embree hands the filter a pointer to it
-  const Visibility* vis = nullptr;
-  unsigned excluded = RTC_INVALID_GEOMETRY_ID;  // instance geometry id in the top-level scene
-  int only_object = -1;                         // the object traced alone (occluded_by)
-  const Coincident* coincident = nullptr;
-};
-
-void filter_hits(const RTCFilterFunctionNArguments* args) {
-  const FilterContext& f = *reinterpret_cast<const FilterContext*>(args->context);
-  for (unsigned i = 0; i < args->N; ++i) {
-    if (args->valid[i] != -1) continue;
-    unsigned instance = RTCHitN_instID(args->hit, args->N, i, 0);
-    if (instance != RTC_INVALID_GEOMETRY_ID && instance == f.excluded) {
-      args->valid[i] = 0;
-      continue;
-    }
-    if (!f.coincident) continue;
-    unsigned id = RTCRayN_id(args->ray, args->N, i);
-    int target = f.coincident->target_object[id];
-    // The ray's tfar is the hit's distance here (instances are not transformed: the same units).
-    if (target < 0 || RTCRayN_tfar(args->ray, args->N, i) < f.coincident->zone_start[id]) continue;
-    int object = f.only_object >= 0 ? f.only_object
-                 : f.vis->object_of(instance != RTC_INVALID_GEOMETRY_ID ? instance : RTCHitN_geomID(args->hit, args->N, i));
-    if (object < target) continue;
-    int patch = f.coincident->target_patch[id];
-    if (object > target || patch < 0 || f.vis->patch_begin(object) + int(RTCHitN_primID(args->hit, args->N, i)) >= patch)
-      args->valid[i] = 0;
-  }
-}
-
-void trace(RTCScene scene, FilterContext& ctx, RTCRay* rays, unsigned count) {
-  rtcInitIntersectContext(&ctx.context);
-  if (ctx.excluded != RTC_INVALID_GEOMETRY_ID || ctx.coincident) ctx.context.filter = filter_hits;
-  rtcOccluded1M(scene, &ctx.context, rays, count, sizeof(RTCRay));
-}
-
-}  // namespace
-
 void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigned count,
                              const Coincident* coincident) const {
   const Object& o = objects_.at(object);
@@ -203,20 +272,22 @@ void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigne
   trace(scene, ctx, rays, count);
 }
 
-void Visibility::occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident) const {
+void Visibility::occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident,
+                                  Crossings* crossings) const {
   FilterContext ctx;
   ctx.vis = this, ctx.excluded = objects_.at(object).geometry, ctx.coincident = coincident;
+  ctx.crossings = crossings;
   trace(top_, ctx, rays, count);
 }
 
-void Visibility::occluded(RTCRay* rays, unsigned count, const Coincident* coincident) const {
+void Visibility::occluded(RTCRay* rays, unsigned count, const Coincident* coincident, Crossings* crossings) const {
   if (recording_) {
     std::lock_guard<std::mutex> lock(recording_->mutex);
     if (recording_->batches++ % recording_->stride == 0)
       recording_->batches_kept.emplace_back(rays, rays + count);
   }
   FilterContext ctx;
-  ctx.vis = this, ctx.coincident = coincident;
+  ctx.vis = this, ctx.coincident = coincident, ctx.crossings = crossings;
   trace(top_, ctx, rays, count);
 }
 
@@ -269,13 +340,19 @@ double Visibility::replay_recorded() const {
   if (!recording_ || recording_->batches_kept.empty()) return 0.0;
   std::vector<std::vector<RTCRay>> batches = recording_->batches_kept;  // tracing overwrites tfar
   long long rays = 0;
-  for (const auto& b : batches) rays += b.size();
+  unsigned ids = 0;
+  for (const auto& b : batches) {
+    rays += b.size();
+    for (const RTCRay& r : b) ids = std::max(ids, r.id + 1);
+  }
   int count = int(batches.size());
+  // As the solver traced them: on through panes where some let light through.
+  tbb::enumerable_thread_specific<Crossings> crossings([&] { return Crossings(ids); });
   auto start = std::chrono::steady_clock::now();
   parallel_for(0, count, 16, [&](int i) {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    rtcOccluded1M(top_, &context, batches[i].data(), unsigned(batches[i].size()), sizeof(RTCRay));
+    FilterContext ctx;
+    ctx.vis = this, ctx.crossings = transmits_ ? &crossings.local() : nullptr;
+    trace(top_, ctx, batches[i].data(), unsigned(batches[i].size()));
   });
   double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return rays / seconds;

@@ -6,6 +6,7 @@
 #include "patch_mesh.h"
 #include "radiosity/form_factor.h"
 #include "radiosity/lanes.h"
+#include "transmission.h"
 
 #include <embree3/rtcore.h>
 
@@ -72,8 +73,16 @@ class Visibility {
   Visibility& operator=(const Visibility&) = delete;
 
   // Traces a stream of occlusion rays; an occluded ray comes back with tfar = -inf. Rays to
-  // surfaces that may lie under another's carry their ids into `coincident`.
-  void occluded(RTCRay* rays, unsigned count, const Coincident* coincident = nullptr) const;
+  // surfaces that may lie under another's carry their ids into `coincident`. With `crossings`, rays
+  // that carry light go on through patches that let light through, which it records per ray id;
+  // without, such a patch blocks as a wall does (whether two places see each other).
+  void occluded(RTCRay* rays, unsigned count, const Coincident* coincident = nullptr,
+                Crossings* crossings = nullptr) const;
+  // Some patch lets light through (PatchMesh::transmission): only then do rays that carry light
+  // need Crossings. Else no geometry has a filter, and rays cost what they cost without panes.
+  bool transmits() const { return transmits_; }
+  // The patches' Transmission changed (a material's lobes): each object as it is now takes it.
+  void set_optics(const PatchMesh& mesh);
 
   // An object moved, deformed, appeared or vanished: its new geometry (from `mesh`) and visibility
   // replace the old ones, which are kept until the next move so an update can ask what the old one
@@ -86,7 +95,8 @@ class Visibility {
   void occluded_by(int object, bool before_move, RTCRay* rays, unsigned count,
                    const Coincident* coincident = nullptr) const;
   // Rays against the whole scene except one moved object.
-  void occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident = nullptr) const;
+  void occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident = nullptr,
+                        Crossings* crossings = nullptr) const;
 
   // Whether part of a patch may lie on a surface of an object of lower index, or on a patch of
   // lower index of its own object (within a few epsilon, facing either way): rays to it must then
@@ -118,10 +128,16 @@ class Visibility {
   double epsilon() const { return epsilon_; }
 
  private:
+  // What the filter of an object's quads reads where some of them let light through.
+  struct Panes {
+    int object = 0, patch_begin = 0;
+    std::vector<Transmission> patches;  // its patches', from patch_begin
+  };
   struct Object {
     unsigned geometry = RTC_INVALID_GEOMETRY_ID;  // in top_: its quads, or its instance
     RTCGeometry instance = nullptr;
     RTCScene own[2] = {nullptr, nullptr};          // instanced geometry: now and before the last move
+    std::unique_ptr<Panes> panes[2];               // the same states; null where nothing passes light
     bool visible[2] = {true, true};
     int now = 0;
     dvec3 lo{INFINITY}, hi{-INFINITY};  // its vertices' bounds as it is
@@ -129,6 +145,12 @@ class Visibility {
   };
   void attach(const PatchMesh& mesh, bool dynamic, bool shown);  // the mesh's next object
   RTCScene new_object_scene();
+  // Embree's occlusion filter of quads with panes among them.
+  static void filter_panes(const RTCFilterFunctionNArguments* args);
+  // Gives the object's quads (made by make_quads, not yet committed) its panes as `mesh` has them,
+  // and a filter that reads them if some of its patches let light through; commits them.
+  static void take_panes(RTCGeometry quads, const PatchMesh& mesh, int object, std::unique_ptr<Panes>& panes);
+  void count_panes();  // transmits_
   void make_instance(Object& o, RTCGeometry quads);
   void name_geometry(const Object& o);  // object_of(o.geometry) is o's index
   // may_lie_under for the patches whose bounds meet [lo, hi] (all, by default).
@@ -140,6 +162,7 @@ class Visibility {
   std::vector<int> object_of_geometry_;
   static constexpr char kOnOther = 1, kOnOwn = 2;
   std::vector<char> under_;        // per patch: may_lie_under, as kOnOther | kOnOwn
+  bool transmits_ = false;
   double epsilon_;
   struct Recording {
     std::mutex mutex;

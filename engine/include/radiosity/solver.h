@@ -43,10 +43,13 @@ struct SolveStats {
   std::vector<std::string> warnings;  // e.g. no light, degenerate faces dropped
 };
 
-// Injected = unshot + absorbed + escaped, in power units of radiance x area (both sides and RGB
-// summed). `injected` is the direct light (lamps, world, emitting surfaces) that landed on surfaces.
+// Injected = unshot + absorbed + transmitted + escaped, in power units of radiance x area (both
+// sides and RGB summed). `injected` is the direct light (lamps, world, emitting surfaces) that
+// landed on surfaces; `transmitted` the part of it that passed on through the surfaces it landed on,
+// to land again behind them (counted there in `injected` too) or to escape. Surfaces absorb what
+// they neither reflect nor let through.
 struct PowerBalance {
-  double injected = 0.0, unshot = 0.0, absorbed = 0.0;
+  double injected = 0.0, unshot = 0.0, absorbed = 0.0, transmitted = 0.0;
 };
 
 // Called before the first shot and between shots (50 ms apart or more) with (progress in [0, 1],
