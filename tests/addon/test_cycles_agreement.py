@@ -166,17 +166,18 @@ def test_agreement_with_cycles(addon, case):
 # ----------------------------------------------------------------------------- glass and mirrors
 SHARE = 0.1                    # our change against Cycles' when the pane or mirror turns black
 # (sample, its variant with the optic black, the optic's object and material), marks
-OPTICS = [pytest.param("window_room", "window_room_opaque", "Pane",
-                       marks=pytest.mark.xfail(strict=True, reason="needs the engine's transmission")),
+OPTICS = [("window_room", "window_room_opaque", "Pane"),
           pytest.param("mirror_room", "mirror_room_black", "Mirror",
                        marks=pytest.mark.xfail(strict=True, reason="mirrors are not simulated yet"))]
 _optics_bakes = {}
 
 
 def optics_corners(reference_name, optic, black):
-    """(ours, Cycles') at the non-emitting corners of every mesh but `optic`, after a default bake of
-    the sample VARIANTS[reference_name] names (its optic made black where `black`). Baked once a
-    session: the agreement and share tests share the sample's bake."""
+    """{"ours", "cycles" (Cycles' corners), "inset" (Cycles a little inside the faces, where the
+    reference has it, else None), "junction" (which corners lie on another surface)} at the
+    non-emitting corners of every mesh but `optic`, after a default bake of the sample
+    VARIANTS[reference_name] names (its optic made black where `black`). Baked once a session: the
+    agreement and share tests share the sample's bake."""
     if reference_name not in _optics_bakes:
         sample, _ = optics_references.VARIANTS[reference_name]
         bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, sample + ".blend"))
@@ -186,30 +187,54 @@ def optics_corners(reference_name, optic, black):
         scene.radiosity.preset = 'DEFAULT'
         assert bpy.ops.radiosity.bake() == {'FINISHED'}
         ref = reference.read_npz(optics_references.path_of(reference_name))
-        ours, theirs = [], []
+        rows = {"ours": [], "cycles": [], "inset": [], "positions": [], "normals": []}
+        faces = []
         for ob in sorted(scene.objects, key=lambda o: o.name):
-            if ob.type != 'MESH' or ob.hide_render or ob.name == optic:
+            if ob.type != 'MESH' or ob.hide_render:
+                continue
+            co, normals, f = make_references.world_faces(ob)
+            faces += f
+            if ob.name == optic:
                 continue
             keep = ~make_references.emitting_corners(ob)
-            ours.append(colours(ob)[keep, :3])
-            theirs.append(reference.corner_reference(ref, ob.name)[keep])
-        _optics_bakes[reference_name] = (np.concatenate(ours), np.concatenate(theirs))
+            rows["ours"].append(colours(ob)[keep, :3])
+            rows["cycles"].append(reference.corner_reference(ref, ob.name)[keep])
+            if ob.name + ":corner_inset" in ref:
+                rows["inset"].append(reference.corner_reference(ref, ob.name, inset=True)[keep])
+            rows["positions"].append(co[keep])
+            rows["normals"].append(normals[keep])
+        out = {k: np.concatenate(v) if v else None for k, v in rows.items()}
+        out["junction"] = reference.junction_faces(out.pop("positions"), out.pop("normals"), faces).any(1)
+        _optics_bakes[reference_name] = out
     return _optics_bakes[reference_name]
 
 
-@pytest.mark.parametrize("sample, variant, optic", OPTICS)
+# The sun and sky put far more light on the room's outside than its inside gets through the window,
+# and the solve's threshold is a share of all the light: it stops while the inside's interreflection
+# still holds light (a tenth of the threshold takes the corners from 10% to 3.5%).
+UNDER_CONVERGED = pytest.mark.xfail(strict=True, reason="the default threshold, a share of the light on the room's "
+                                    "outside too, leaves the inside's interreflection short")
+
+
+@pytest.mark.parametrize("sample, variant, optic", [pytest.param(*OPTICS[0], marks=UNDER_CONVERGED), OPTICS[1]])
 def test_optics_samples_agree_with_cycles(addon, sample, variant, optic):
-    ours, theirs = optics_corners(sample, optic, False)
-    err = reference.relative_rms(ours, theirs)
-    print(f"\n{sample} default: corner relative RMS {100 * err:.2f}% over {len(ours)} corners, "
-          f"mean ours {ours.mean():.4f} Cycles {theirs.mean():.4f}", end="")
+    """Corners off junctions against Cycles' own, those on one against Cycles a little inside their
+    face (DESIGN.md: Cycles' vertex bake is ill-posed there)."""
+    c = optics_corners(sample, optic, False)
+    ours, junction = c["ours"], c["junction"]
+    limit = reference.limit_reference(c["cycles"], c["inset"], junction)
+    err = reference.relative_rms(ours, limit)
+    print(f"\n{sample} default: corner relative RMS {100 * err:.2f}% over {len(ours)} corners "
+          f"({100 * reference.relative_rms(ours, c['cycles'], ~junction):.2f}% off junctions, "
+          f"{100 * reference.relative_rms(ours, c['inset'], junction):.2f}% on them against Cycles inside the face, "
+          f"{100 * reference.relative_rms(ours, c['cycles'], junction):.2f}% against Cycles' corners)", end="")
     assert err <= TARGET["DEFAULT"]
 
 
 @pytest.mark.parametrize("sample, variant, optic", OPTICS)
 def test_the_light_a_pane_or_mirror_carries_is_cycles_share(addon, sample, variant, optic):
-    ours, theirs = optics_corners(sample, optic, False)
-    ours_black, theirs_black = optics_corners(variant, optic, True)
+    ours, theirs = (optics_corners(sample, optic, False)[k] for k in ("ours", "cycles"))
+    ours_black, theirs_black = (optics_corners(variant, optic, True)[k] for k in ("ours", "cycles"))
     ours_change, cycles_change = ours - ours_black, theirs - theirs_black
     err = reference.relative_rms(ours_change, cycles_change)
     print(f"\n{sample}: {optic} carries {100 * cycles_change.mean() / theirs.mean():.1f}% of the light at the "

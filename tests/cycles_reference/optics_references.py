@@ -1,14 +1,18 @@
 """Cycles corner references for the optics samples (window_room, mirror_room) and their share variants.
 
     blender -b --factory-startup --python tests/cycles_reference/optics_references.py [-- --corner-samples N] [--only NAME]
-        [--seed S]
+        [--seed S] [--inset-only]
 
 Writes tests/cycles_reference/optics/<name>.npz, one per entry of VARIANTS: the sample as it is, and
 the sample with its pane made opaque or its mirror black (a Diffuse BSDF of black, `blacken`), whose
 difference is the share of the light the pane or the mirror carries. Settings: make_references'
 (cycles_settings.unbiased, 64 bounces) plus cycles_settings.with_optics (glossy and transmission
 bounces on, caustics allowed, no glossy blur). Layout: make_references' "<name>:corner" and
-"<name>:matrix_world" per mesh object, plus "samples_corner", "seconds_corner", "blender_version".
+"<name>:matrix_world" per mesh object, plus "samples_corner", "seconds_corner", "blender_version";
+the samples as they are (not the variants) also make_references' "<name>:corner_inset" of every mesh
+but the pane or mirror (an inset copy of it would stack a second pane on it), the reference of
+corners on a junction (DESIGN.md: judged a little inside their face). --inset-only bakes those into
+the existing files.
 The files sit in their own folder: test_references.py checks the sample scenes' own files, and a
 variant has no .blend of its own. --seed S (noise estimates) writes <name>_seedS.npz beside them.
 """
@@ -43,7 +47,11 @@ def path_of(name, seed=0):
     return os.path.join(OUT, name + (f"_seed{seed}" if seed else "") + ".npz")
 
 
-def run(name, samples_corner, seed=0):
+# sample -> its pane's or mirror's object (and material) name
+OPTIC = {"window_room": "Pane", "mirror_room": "Mirror"}
+
+
+def run(name, samples_corner, seed=0, inset_only=False):
     scene_name, black = VARIANTS[name]
     bpy.ops.wm.open_mainfile(filepath=os.path.join(make_references.SAMPLES_DIR, scene_name + ".blend"))
     sc = bpy.context.scene
@@ -52,10 +60,19 @@ def run(name, samples_corner, seed=0):
     if black is not None:
         blacken(bpy.data.materials[black])
     meshes = sorted([o for o in sc.objects if o.type == 'MESH'], key=lambda o: o.name)
-    data, note = make_references.bake_corner(sc, meshes, samples_corner)
+    out = path_of(name, seed)
+    if inset_only:
+        with np.load(out) as z:
+            data, note = {k: z[k] for k in z.files}, "kept corners"
+    else:
+        data, note = make_references.bake_corner(sc, meshes, samples_corner)
+    if black is None:
+        inset, inset_note = make_references.bake_inset(sc, [o for o in meshes if o.name != OPTIC[scene_name]],
+                                                       samples_corner, make_references.INSET)
+        data.update(inset)
+        note += "; " + inset_note
     data["blender_version"] = np.array(bpy.app.version_string)
     os.makedirs(OUT, exist_ok=True)
-    out = path_of(name, seed)
     np.savez_compressed(out, **data)
     print(f"REF optics/{os.path.basename(out)}: {note}, {os.path.getsize(out) / 1024:.0f} KiB", flush=True)
 
@@ -65,9 +82,10 @@ def main():
     samples = int(argv[argv.index("--corner-samples") + 1]) if "--corner-samples" in argv else 65536
     only = argv[argv.index("--only") + 1] if "--only" in argv else None
     seed = int(argv[argv.index("--seed") + 1]) if "--seed" in argv else 0
+    inset_only = "--inset-only" in argv
     for name in VARIANTS:
-        if only is None or only == name:
-            run(name, samples, seed)
+        if (only is None or only == name) and not (inset_only and VARIANTS[name][1] is not None):
+            run(name, samples, seed, inset_only)
 
 
 if __name__ == "__main__":

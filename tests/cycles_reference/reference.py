@@ -63,11 +63,12 @@ def traced_reference(traced, name):
     return None if traced is None or key not in traced else traced[key]
 
 
-def limit_reference(cycles, traced, junction):
-    """Per corner: Cycles' value where it is well-posed, and the traced one on a junction
-    (`junction`, junction_faces(...).any(1)), where Cycles' vertex bake gives neither limit of the
-    corner's value (trace_corner.py)."""
-    return np.where(np.asarray(junction)[:, None], traced, cycles)
+def limit_reference(cycles, inside, junction):
+    """Per corner: Cycles' value where it is well-posed, and on a junction (`junction`,
+    junction_faces(...).any(1)), where Cycles' vertex bake gives neither limit of the corner's
+    value, `inside`: the value a hair inside the corner's face (a path tracer's, trace_corner.py, or
+    Cycles' inset bake)."""
+    return np.where(np.asarray(junction)[:, None], inside, cycles)
 
 
 def grid_positions(positions, face_vertices, n, transform=None):
