@@ -156,7 +156,8 @@ namespace {
 struct FilterContext {
   RTCIntersectContext context;  // first: Embree hands the filter a pointer to it
   const Visibility* vis = nullptr;
-  unsigned excluded = RTC_INVALID_GEOMETRY_ID;  // instance geometry id in the top-level scene
+  const unsigned* excluded = nullptr;           // instance geometry ids in the top-level scene
+  unsigned excluded_count = 0;
   int only_object = -1;                         // the object traced alone (occluded_by)
   const Coincident* coincident = nullptr;
 };
@@ -166,7 +167,8 @@ void filter_hits(const RTCFilterFunctionNArguments* args) {
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] != -1) continue;
     unsigned instance = RTCHitN_instID(args->hit, args->N, i, 0);
-    if (instance != RTC_INVALID_GEOMETRY_ID && instance == f.excluded) {
+    if (instance != RTC_INVALID_GEOMETRY_ID &&
+        std::find(f.excluded, f.excluded + f.excluded_count, instance) != f.excluded + f.excluded_count) {
       args->valid[i] = 0;
       continue;
     }
@@ -186,7 +188,7 @@ void filter_hits(const RTCFilterFunctionNArguments* args) {
 
 void trace(RTCScene scene, FilterContext& ctx, RTCRay* rays, unsigned count) {
   rtcInitIntersectContext(&ctx.context);
-  if (ctx.excluded != RTC_INVALID_GEOMETRY_ID || ctx.coincident) ctx.context.filter = filter_hits;
+  if (ctx.excluded_count > 0 || ctx.coincident) ctx.context.filter = filter_hits;
   rtcOccluded1M(scene, &ctx.context, rays, count, sizeof(RTCRay));
 }
 
@@ -205,7 +207,17 @@ void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigne
 
 void Visibility::occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident) const {
   FilterContext ctx;
-  ctx.vis = this, ctx.excluded = objects_.at(object).geometry, ctx.coincident = coincident;
+  ctx.vis = this, ctx.excluded = &objects_.at(object).geometry, ctx.excluded_count = 1, ctx.coincident = coincident;
+  trace(top_, ctx, rays, count);
+}
+
+void Visibility::occluded_without(const std::vector<int>& objects, RTCRay* rays, unsigned count,
+                                  const Coincident* coincident) const {
+  std::vector<unsigned> geometry;
+  for (int object : objects) geometry.push_back(objects_.at(object).geometry);
+  FilterContext ctx;
+  ctx.vis = this, ctx.excluded = geometry.data(), ctx.excluded_count = unsigned(geometry.size());
+  ctx.coincident = coincident;
   trace(top_, ctx, rays, count);
 }
 
