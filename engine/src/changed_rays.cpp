@@ -15,23 +15,28 @@ unsigned ChangedRays::keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, u
   // passes near, and no more once one of them blocks it there.
   bool blocked[2][kMaxRays] = {};
   int through[kMaxRays];
-  std::fill(through, through + count, kNone);
+  dvec3 origin[kMaxRays], dir[kMaxRays];
+  for (unsigned i = 0; i < count; ++i) {
+    const RTCRay& r = rays[i];
+    through[i] = kNone;
+    origin[i] = dvec3(r.org_x, r.org_y, r.org_z), dir[i] = dvec3(r.dir_x, r.dir_y, r.dir_z);
+  }
   for (int m = 0; m < int(objects_.size()); ++m) {
     const Zone& zone = zones_[m];
-    for (int place = 0; place < 2; ++place) {
-      const Sphere& bounds = place == 0 ? zone.before : zone.after;
-      RTCRay near[kMaxRays];
-      unsigned which[kMaxRays], crossing = 0;
-      for (unsigned i = 0; i < count; ++i) {
-        const RTCRay& r = rays[i];
-        dvec3 origin(r.org_x, r.org_y, r.org_z), dir(r.dir_x, r.dir_y, r.dir_z);
-        if (!ray_crosses(origin, dir, r.tfar, zone.around) || !ray_crosses(origin, dir, r.tfar, bounds)) continue;
+    RTCRay near[2][kMaxRays];
+    unsigned which[2][kMaxRays], crossing[2] = {0, 0};
+    for (unsigned i = 0; i < count; ++i) {
+      if (!ray_crosses(origin[i], dir[i], rays[i].tfar, zone.around)) continue;
+      for (int place = 0; place < 2; ++place) {
+        if (!ray_crosses(origin[i], dir[i], rays[i].tfar, place == 0 ? zone.before : zone.after)) continue;
         through[i] = through[i] == kNone || through[i] == m ? m : kSeveral;
-        if (!blocked[place][i]) near[crossing] = r, which[crossing++] = i;
+        if (!blocked[place][i]) near[place][crossing[place]] = rays[i], which[place][crossing[place]++] = i;
       }
-      vis_.occluded_by(objects_[m], place == 0, near, crossing, coincident);
-      for (unsigned k = 0; k < crossing; ++k) blocked[place][which[k]] = near[k].tfar < 0;
-      traced += crossing;
+    }
+    for (int place = 0; place < 2; ++place) {
+      vis_.occluded_by(objects_[m], place == 0, near[place], crossing[place], coincident);
+      for (unsigned k = 0; k < crossing[place]; ++k) blocked[place][which[place][k]] = near[place][k].tfar < 0;
+      traced += crossing[place];
     }
   }
   unsigned kept = 0;
