@@ -69,4 +69,21 @@ struct Zone {
   }
 };
 
+// Where several objects moved together were and are: a ray may have changed if it passes through
+// any one's Zone.
+struct Zones {
+  const Zone* zones = nullptr;
+  int count = 0;
+  bool may_cross(const dvec3& x, const Sphere& target) const {
+    for (int k = 0; k < count; ++k)
+      if (zones[k].may_cross(x, target)) return true;
+    return false;
+  }
+  bool crossed_by(const dvec3& origin, const dvec3& dir, double t_max) const {
+    for (int k = 0; k < count; ++k)
+      if (zones[k].crossed_by(origin, dir, t_max)) return true;
+    return false;
+  }
+};
+
 }  // namespace radiosity

@@ -2,24 +2,42 @@
 
 namespace radiosity {
 
+namespace {
+
+constexpr int kNone = -1, kSeveral = -2;  // which moved objects' zones a ray passes through
+
+}  // namespace
+
 unsigned ChangedRays::keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, unsigned count,
                                   const Coincident* coincident, long long& traced) const {
-  // A ray the object's sphere of one place does not reach, the object there cannot block: each ray
-  // is traced against the places it passes near, not against both.
-  bool blocked[2][kMaxRays];
-  for (int place = 0; place < 2; ++place) {
-    const Sphere& bounds = place == 0 ? zone_.before : zone_.after;
-    RTCRay near[kMaxRays];
-    unsigned which[kMaxRays], crossing = 0;
+  // Whether some moved object blocks each ray, before and after. A ray an object's sphere of one
+  // place does not reach, the object there cannot block: each ray is traced against the places it
+  // passes near, and no more once one of them blocks it there.
+  bool blocked[2][kMaxRays] = {};
+  int through[kMaxRays];
+  dvec3 origin[kMaxRays], dir[kMaxRays];
+  for (unsigned i = 0; i < count; ++i) {
+    const RTCRay& r = rays[i];
+    through[i] = kNone;
+    origin[i] = dvec3(r.org_x, r.org_y, r.org_z), dir[i] = dvec3(r.dir_x, r.dir_y, r.dir_z);
+  }
+  for (int m = 0; m < int(objects_.size()); ++m) {
+    const Zone& zone = zones_[m];
+    RTCRay near[2][kMaxRays];
+    unsigned which[2][kMaxRays], crossing[2] = {0, 0};
     for (unsigned i = 0; i < count; ++i) {
-      const RTCRay& r = rays[i];
-      blocked[place][i] = false;
-      if (ray_crosses(dvec3(r.org_x, r.org_y, r.org_z), dvec3(r.dir_x, r.dir_y, r.dir_z), r.tfar, bounds))
-        near[crossing] = r, which[crossing++] = i;
+      if (!ray_crosses(origin[i], dir[i], rays[i].tfar, zone.around)) continue;
+      for (int place = 0; place < 2; ++place) {
+        if (!ray_crosses(origin[i], dir[i], rays[i].tfar, place == 0 ? zone.before : zone.after)) continue;
+        through[i] = through[i] == kNone || through[i] == m ? m : kSeveral;
+        if (!blocked[place][i]) near[place][crossing[place]] = rays[i], which[place][crossing[place]++] = i;
+      }
     }
-    vis_.occluded_by(object_, place == 0, near, crossing, coincident);
-    for (unsigned k = 0; k < crossing; ++k) blocked[place][which[k]] = near[k].tfar < 0;
-    traced += crossing;
+    for (int place = 0; place < 2; ++place) {
+      vis_.occluded_by(objects_[m], place == 0, near[place], crossing[place], coincident);
+      for (unsigned k = 0; k < crossing[place]; ++k) blocked[place][which[place][k]] = near[place][k].tfar < 0;
+      traced += crossing[place];
+    }
   }
   unsigned kept = 0;
   for (unsigned i = 0; i < count; ++i) {
@@ -28,9 +46,23 @@ unsigned ChangedRays::keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, u
     rays[kept] = rays[i];
     into[kept] = into[i];
     carried[kept] = sign * carried[i];
+    through[kept] = through[i];
     ++kept;
   }
-  traced += db_.trace_without(vis_, object_, rays, kept, coincident);
+  // What else blocks a changed ray: the scene without the moved objects it passes near (those it
+  // passes far from block it neither way). Near one, the dB cache of that one knows; near several,
+  // it is traced without all of them.
+  for (int m = kSeveral; m < int(objects_.size()); ++m) {
+    if (m == kNone) continue;
+    RTCRay asked[kMaxRays];
+    unsigned which[kMaxRays], n = 0;
+    for (unsigned i = 0; i < kept; ++i)
+      if (through[i] == m) asked[n] = rays[i], which[n++] = i;
+    if (n == 0) continue;
+    traced += m == kSeveral ? db_.trace_without(vis_, objects_, asked, n, coincident)
+                            : db_.trace_without(vis_, objects_[m], asked, n, coincident);
+    for (unsigned k = 0; k < n; ++k) rays[which[k]].tfar = asked[k].tfar;
+  }
   return kept;
 }
 

@@ -1,15 +1,19 @@
-// What one object's last move changed of a gather's rays: the paper's exit and enter zones (sec. 4).
+// What the objects one update moves changed of a gather's rays: the paper's exit and enter zones
+// (sec. 4), for all of them at once.
 //
-// A ray counts with + if the object blocked it before and not now (the exit zone), - if the reverse
-// (the enter zone), and only if nothing else blocks it. A ray the object blocks both times, or
-// neither, costs no trace of the whole scene, and one that passes through neither of the object's
-// bounding spheres (`zone`) no trace at all. What else blocks a changed ray comes from the dB cache
-// when it knows, else from a trace that it keeps there.
+// A ray counts with + if some moved object blocked it before and none does now (the exit zone), -
+// if the reverse (the enter zone), and only if nothing else blocks it. A ray the moved objects block
+// both times, or neither, costs no trace of the whole scene, and one that passes through none of
+// their bounding spheres (`zones`) no trace at all. What else blocks a changed ray comes from the
+// dB cache when it knows, else from a trace that it keeps there. A ray in several objects' zones
+// (overlapping shadows) is asked about once, against all of them.
 #pragma once
 
 #include "bounds.h"
 #include "db_cache.h"
 #include "visibility.h"
+
+#include <vector>
 
 namespace radiosity {
 
@@ -17,13 +21,14 @@ class ChangedRays {
  public:
   static constexpr unsigned kMaxRays = DbCache::kMaxRays;  // at once
 
-  // Shared by the threads of a gather: `db` takes what they trace from all of them.
-  ChangedRays(const Visibility& vis, int object, const Zone& zone, DbCache& db)
-      : vis_(vis), object_(object), zone_(zone), db_(db) {}
+  // `objects` moved, each between the places of its zones[k]. Shared by the threads of a gather:
+  // `db` takes what they trace from all of them.
+  ChangedRays(const Visibility& vis, const std::vector<int>& objects, const std::vector<Zone>& zones, DbCache& db)
+      : vis_(vis), objects_(objects), zones_(zones), all_{zones.data(), int(zones.size())}, db_(db) {}
 
-  // Whether the move may have changed the ray: it passes through a place of the object.
+  // Whether the move may have changed the ray: it passes through a place of a moved object.
   bool may_have_changed(const dvec3& origin, const dvec3& dir, double t_max) const {
-    return zone_.crossed_by(origin, dir, t_max);
+    return all_.crossed_by(origin, dir, t_max);
   }
 
   // Of `count` rays, each carrying carried[i] into *into[i], moves to the front (in their order) the
@@ -35,8 +40,9 @@ class ChangedRays {
 
  private:
   const Visibility& vis_;
-  int object_;
-  const Zone& zone_;
+  const std::vector<int>& objects_;
+  const std::vector<Zone>& zones_;
+  Zones all_;
   DbCache& db_;
 };
 

@@ -118,14 +118,19 @@ void DbCache::stage(int object, const RTCRay* rays, const unsigned* which, const
   std::lock_guard<std::mutex> lock(mutex_);
   counts_.hits += hits;
   counts_.misses += count;
-  staging_ = object;
-  std::size_t limit = cap_ / 4 / sizeof(Staged);  // a quarter of the cap
-  count = unsigned(std::min<std::size_t>(count, limit - std::min(limit, staged_.size())));
-  if (staged_.size() + count > staged_.capacity())  // grown by hand: doubling must not pass the cap
-    staged_.reserve(std::min(limit, std::max<std::size_t>(2 * staged_.capacity(), staged_.size() + count)));
+  std::vector<Staged>& staged = staged_[object];
+  // A quarter of the cap, for all objects: this one's room is what the others have not reserved.
+  std::size_t limit = cap_ / 4 / sizeof(Staged);
+  std::size_t room = limit - std::min(limit, staged_reserved_ - staged.capacity());
+  count = unsigned(std::min<std::size_t>(count, room - std::min(room, staged.size())));
+  if (staged.size() + count > staged.capacity()) {  // grown by hand: doubling must not pass the cap
+    std::size_t was = staged.capacity();
+    staged.reserve(std::min(room, std::max<std::size_t>(2 * was, staged.size() + count)));
+    staged_reserved_ += staged.capacity() - was;
+  }
   for (unsigned k = 0; k < count; ++k) {
     const RTCRay& r = rays[which[k]];
-    staged_.push_back({origin_of(r), {rest_of(r), traced[k].tfar < 0 ? blocked : clear}});
+    staged.push_back({origin_of(r), {rest_of(r), traced[k].tfar < 0 ? blocked : clear}});
   }
 }
 
@@ -149,21 +154,27 @@ void DbCache::make_room(int keep, std::size_t more, std::size_t more_origins) {
 }
 
 void DbCache::commit() {
-  if (staged_.empty()) return;
+  for (auto& [object, staged] : staged_) commit(object, staged);
+  staged_.clear();
+  staged_reserved_ = 0;
+}
+
+void DbCache::commit(int object, std::vector<Staged>& staged) {
+  if (staged.empty()) return;
   // A receiver's rays come in a row: runs of one origin. Sorted by run, then each origin's answers
   // apart: a sort of all of them at once would cost a drag (every update new answers) what it spares.
   std::vector<std::size_t> runs;
-  for (std::size_t k = 0; k < staged_.size(); ++k)
-    if (k == 0 || staged_[k].origin != staged_[k - 1].origin) runs.push_back(k);
-  runs.push_back(staged_.size());
+  for (std::size_t k = 0; k < staged.size(); ++k)
+    if (k == 0 || staged[k].origin != staged[k - 1].origin) runs.push_back(k);
+  runs.push_back(staged.size());
   std::vector<Origin> fresh;
-  for (std::size_t r = 0; r + 1 < runs.size(); ++r) fresh.push_back(staged_[runs[r]].origin);
+  for (std::size_t r = 0; r + 1 < runs.size(); ++r) fresh.push_back(staged[runs[r]].origin);
   std::sort(fresh.begin(), fresh.end());
   fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
   // What is kept has three quarters of the cap (at most a quarter of the cap staged, 32 bytes an
   // answer: kept, 72 at most).
-  make_room(staging_, staged_.size(), fresh.size());
-  Table& t = tables_[staging_];
+  make_room(object, staged.size(), fresh.size());
+  Table& t = tables_[object];
   forget_stale(t);  // prepared before the gather, unless the gather asked nothing
 
   // Every origin, each with its answers so far (none, if fresh).
@@ -184,15 +195,15 @@ void DbCache::commit() {
   std::vector<std::size_t> start(t.origins.size() + 1, 0);
   std::vector<uint32_t> to(runs.size() - 1);
   for (std::size_t r = 0; r + 1 < runs.size(); ++r) {
-    to[r] = uint32_t(std::lower_bound(t.origins.begin(), t.origins.end(), staged_[runs[r]].origin) - t.origins.begin());
+    to[r] = uint32_t(std::lower_bound(t.origins.begin(), t.origins.end(), staged[runs[r]].origin) - t.origins.begin());
     start[to[r] + 1] += runs[r + 1] - runs[r];
   }
   for (std::size_t b = 0; b < t.origins.size(); ++b) start[b + 1] += start[b];
-  std::vector<Known> grouped(staged_.size());
+  std::vector<Known> grouped(staged.size());
   std::vector<std::size_t> next(start.begin(), start.end() - 1);
   for (std::size_t r = 0; r + 1 < runs.size(); ++r)
-    for (std::size_t k = runs[r]; k < runs[r + 1]; ++k) grouped[next[to[r]]++] = staged_[k].known;
-  std::vector<Staged>().swap(staged_);
+    for (std::size_t k = runs[r]; k < runs[r + 1]; ++k) grouped[next[to[r]]++] = staged[k].known;
+  std::vector<Staged>().swap(staged);
   auto before = [](const Known& a, const Known& b) { return a.rest < b.rest; };
   for (std::size_t b = 0; b < t.origins.size(); ++b) {
     if (start[b] == start[b + 1]) continue;
@@ -217,7 +228,8 @@ DbCache::Counts DbCache::take_counts() {
 }
 
 std::size_t DbCache::bytes() const {
-  std::size_t b = staged_.capacity() * sizeof(Staged);
+  std::size_t b = 0;
+  for (const auto& [object, staged] : staged_) b += staged.capacity() * sizeof(Staged);
   for (const auto& [object, t] : tables_) {
     b += t.origins.capacity() * sizeof(Origin) + t.known.capacity() * sizeof(std::vector<Known>);
     for (const std::vector<Known>& k : t.known) b += k.capacity() * sizeof(Known) + (k.capacity() ? kAllocation : 0);
@@ -240,6 +252,14 @@ unsigned DbCache::trace_without(const Visibility& vis, int object, RTCRay* rays,
   if (count > 0) stage(object, rays, where, missed, misses, count - misses);
   for (unsigned k = 0; k < misses; ++k) rays[where[k]].tfar = missed[k].tfar;
   return misses;
+}
+
+unsigned DbCache::trace_without(const Visibility& vis, const std::vector<int>& objects, RTCRay* rays,
+                                unsigned count, const Coincident* coincident) {
+  vis.occluded_without(objects, rays, count, coincident);
+  std::lock_guard<std::mutex> lock(mutex_);
+  counts_.misses += count;
+  return count;
 }
 
 }  // namespace radiosity

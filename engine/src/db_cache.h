@@ -19,11 +19,12 @@
 // hash, every look-up would miss the processor's caches.
 //
 // Each moved object has answers of its own: several objects moving at once (a frame of an animation)
-// each ask about their own rays, frame after frame. An answer about the scene without one object
-// holds until another object changes where that other can block the ray: its place before or
-// after (moved, with its Zone). Only those rays go; the rest stay. They go when the object's answers
-// are next asked for (prepare): several objects moving in one update cost one pass over each
-// object's answers, not one per mover.
+// each ask about their own rays, frame after frame, in one gather. An answer about the scene
+// without one object holds until another object changes where that other can block the ray: its
+// place before or after (moved, with its Zone). Only those rays go; the rest stay. They go when the
+// object's answers are next asked for (prepare): several objects moving in one update cost one pass
+// over each object's answers, not one per mover. A ray that passes by several objects moving
+// together needs the scene without all of them; such rays are few, and not kept.
 // Memory stays under the cap (what is kept and one update's new answers together); when full, the
 // answers other objects' moves made wrong go first, then those of the objects that moved longest
 // ago, and if that is not room enough the cache starts over with the latest update's answers, the
@@ -64,8 +65,8 @@ class DbCache {
   // What is known of each ray through the scene without `object`; read-only, so safe from every
   // thread of a gather while others stage().
   void find(int object, const RTCRay* rays, unsigned count, Answer* answers) const;
-  // Answers just traced without `object`, from any thread of a gather (one object's at a time):
-  // ray rays[which[k]] as find() was asked, and traced[k] as it came back; `hits` other rays find()
+  // Answers just traced without `object`, from any thread of a gather (of any objects'): ray
+  // rays[which[k]] as find() was asked, and traced[k] as it came back; `hits` other rays find()
   // answered. Kept by commit(), once the gather is over.
   void stage(int object, const RTCRay* rays, const unsigned* which, const RTCRay* traced, unsigned count,
              unsigned hits);
@@ -75,6 +76,9 @@ class DbCache {
   // Visibility::occluded_without does, through the cache: what it knows it answers, what it does not
   // is traced and staged. Returns the rays it traced. From any thread of a gather.
   unsigned trace_without(const Visibility& vis, int object, RTCRay* rays, unsigned count,
+                         const Coincident* coincident);
+  // The same without several objects at once: traced, counted as misses, not kept.
+  unsigned trace_without(const Visibility& vis, const std::vector<int>& objects, RTCRay* rays, unsigned count,
                          const Coincident* coincident);
 
   struct Counts {
@@ -122,13 +126,14 @@ class DbCache {
   // Drops what other moves made wrong, then the tables of the objects that moved longest ago, then
   // `keep`'s own, until `more` entries at `more_origins` new origins fit what is kept.
   void make_room(int keep, std::size_t more, std::size_t more_origins);
+  void commit(int object, std::vector<Staged>& staged);  // one object's staged answers
 
   std::size_t cap_ = 0;  // bytes: three quarters for what is kept, a quarter for staging
   std::map<int, Table> tables_;
   long long clock_ = 0;  // moves so far
   std::mutex mutex_;     // guards what stage() writes
-  int staging_ = -1;     // the object whose answers are staged
-  std::vector<Staged> staged_;
+  std::map<int, std::vector<Staged>> staged_;  // per object
+  std::size_t staged_reserved_ = 0;            // capacity, of all objects
   Counts counts_;
 };
 

@@ -11,8 +11,9 @@
 //    where the object blocked it before and not now (the exit zone), - where the reverse (the enter
 //    zone), and nothing where it blocks both times or neither (the stay zone). Pairs whose rays
 //    cannot pass near the object, old or new (a capsule test, the paper's cone test), cost nothing.
-// An object that vanishes is a move to nowhere: it blocks nothing after, sends and holds nothing;
-// one that appears, a move from nowhere.
+// Objects that move together (a frame of an animation) do so in one pass: a ray counts if what the
+// moved objects block of it changed, whichever of them. An object that vanishes is a move to
+// nowhere: it blocks nothing after, sends and holds nothing; one that appears, a move from nowhere.
 #include "solver_impl.h"
 
 #include "coincident_patches.h"
@@ -165,7 +166,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   if (changes.world) change_world(*changes.world);
   for (const auto& [i, l] : changes.lamps) change_lamp(i, l);
   for (const auto& [i, m] : changes.materials) change_material(i, m);
-  for (const auto& [o, m] : changes.meshes) zones.push_back(change_object(o, m, placed[o]));
+  zones = change_objects(changes.meshes, placed);
   keep_near_direct(objects, zones);
   if (optics) take_optics();
   if (light > 0 && !(injected_power > kRestartBelow * light))
@@ -382,33 +383,33 @@ void Solver::Impl::forget_nodes(int node) {
   shot_cache.forget(patches, node, tree.subtree_end(node));
 }
 
-// What change_object's steps share: the object, where it was and is, and the shooters whose light
-// it changes.
-struct Solver::Impl::ObjectChange {
-  ObjectChange(int object, const MeshDesc& desc, const PlacedObject& placed, const ObjectPatches& patches,
-               const Zone& zone)
-      : object(object), desc(desc), placed(placed), patches(patches), zone(zone) {}
-  int object;
-  const MeshDesc& desc;        // as it is to be
-  const PlacedObject& placed;  // its refined geometry there
-  const ObjectPatches& patches;
-  Zone zone;
-  // The object's own shooters, and those near enough for it to come between their own parts (what
-  // a shooter's samples see of itself is cached, and shapes the light it sends). Flags per shooter
-  // of the cut as it is; the object's are cut anew where it lands, so they are taken again then
-  // (the others keep their nodes, and their order).
+// What change_objects' steps share: the objects, where they were and are, and the shooters whose
+// light they change.
+struct Solver::Impl::ObjectsChange {
+  // Per object changed, in one order: the object, as it is to be, its refined geometry there, and
+  // where it was and is.
+  std::vector<int> objects;
+  std::vector<const MeshDesc*> desc;
+  std::vector<const PlacedObject*> placed;
+  std::vector<Zone> zones;
+  std::vector<char> changing;  // per object of the scene: one of `objects`
+  std::vector<char> on_them;   // per receiving point: on one of them
+  // Their own shooters, and those near enough for one of them to come between their own parts
+  // (what a shooter's samples see of itself is cached, and shapes the light it sends). Flags per
+  // shooter of the cut as it is; the objects' are cut anew where they land, so they are taken again
+  // then (the others keep their nodes, and their order).
   std::vector<int> near_nodes;  // sorted
   std::vector<char> own, near;
   // The cut before the move, and `own` in it: the sources made then name shooters by their index
   // in it.
   std::vector<int> shooters_before;
   std::vector<char> own_before;
-  // Sources as they shoot before the move, made before it: all the direct and reflected light, and
-  // the near shooters' (direct and reflected).
+  // Sources as they shoot before the move, made before it: all the direct light, the others'
+  // reflected light, and the near shooters' (direct and reflected).
   std::vector<Source> others_direct, others_reflected, near_before;
-  double own_direct_before = 0.0;  // the direct light landing on the object's points (landed_power)
+  double own_direct_before = 0.0;  // the direct light landing on the objects' points (landed_power)
 
-  bool on_object(int point) const { return point >= patches.point_begin && point < patches.point_end; }
+  bool on_object(int point) const { return on_them[point]; }
 };
 
 namespace {
@@ -423,53 +424,72 @@ auto gather_from(const Sources& sources) {
 
 }  // namespace
 
-Zone Solver::Impl::change_object(int object, const MeshDesc& m, const PlacedObject& placed) {
-  if (!scene.meshes[object].visible && !m.visible) {  // hidden before and after: nothing to light
-    place(object, m, placed);
-    Sphere nowhere{dvec3(0.0), -INFINITY};
-    return {nowhere, nowhere};
+// All the objects at once: each shooter's light is taken back, sent again and walked for its
+// changed rays once an update, not once a moved object, and a ray in several objects' zones is
+// asked about once.
+std::vector<Zone> Solver::Impl::change_objects(const std::map<int, MeshDesc>& meshes,
+                                               std::map<int, PlacedObject>& placed) {
+  std::vector<Zone> zones;
+  ObjectsChange change;
+  change.changing.assign(mesh.objects.size(), 0);
+  change.on_them.assign(mesh.points.size(), 0);
+  for (const auto& [o, m] : meshes) {
+    if (!scene.meshes[o].visible && !m.visible) {  // hidden before and after: nothing to light
+      place(o, m, placed[o]);
+      Sphere nowhere{dvec3(0.0), -INFINITY};
+      zones.push_back({nowhere, nowhere});
+      continue;
+    }
+    zones.push_back(zone_of(mesh, o, placed[o], 2 * vis->epsilon()));
+    change.objects.push_back(o);
+    change.desc.push_back(&m);
+    change.placed.push_back(&placed[o]);
+    change.zones.push_back(zones.back());
+    change.changing[o] = 1;
+    const ObjectPatches& patches = mesh.objects[o];
+    std::fill(change.on_them.begin() + patches.point_begin, change.on_them.begin() + patches.point_end, 1);
   }
-  ObjectChange change = begin_change(object, m, placed);
+  if (change.objects.empty()) return zones;
+  begin_change(change);
   take_back_sent(change);
   keep_sources_before(change);
   move(change);
   send_again(change);
   gather_changed_rays(change);
-  gather_on_object(change);
-  return change.zone;
+  gather_on_objects(change);
+  return zones;
 }
 
-Solver::Impl::ObjectChange Solver::Impl::begin_change(int object, const MeshDesc& m, const PlacedObject& placed) {
-  ObjectChange change(object, m, placed, mesh.objects[object], zone_of(mesh, object, placed, 2 * vis->epsilon()));
-  const Zone& zone = change.zone;
+void Solver::Impl::begin_change(ObjectsChange& change) {
   for (int node : shooters) {
     const ClusterNode& n = tree.nodes[node];
-    if (!shoots_from(object, node) &&
-        (overlap({n.centroid, n.radius}, zone.before) || overlap({n.centroid, n.radius}, zone.after)))
+    if (!shoots_from(change, node) &&
+        std::any_of(change.zones.begin(), change.zones.end(), [&](const Zone& zone) {
+          return overlap({n.centroid, n.radius}, zone.before) || overlap({n.centroid, n.radius}, zone.after);
+        }))
       change.near_nodes.push_back(node);
   }
   std::sort(change.near_nodes.begin(), change.near_nodes.end());
   flag_shooters(change);
-  return change;
 }
 
-bool Solver::Impl::shoots_from(int object, int node) const {
-  return mesh.patches[tree.order[tree.nodes[node].begin]].object == object;
+bool Solver::Impl::shoots_from(const ObjectsChange& change, int node) const {
+  return change.changing[mesh.patches[tree.order[tree.nodes[node].begin]].object];
 }
 
-void Solver::Impl::flag_shooters(ObjectChange& change) const {
+void Solver::Impl::flag_shooters(ObjectsChange& change) const {
   change.own.assign(shooters.size(), 0), change.near.assign(shooters.size(), 0);
   for (size_t s = 0; s < shooters.size(); ++s) {
-    change.own[s] = shoots_from(change.object, shooters[s]);
+    change.own[s] = shoots_from(change, shooters[s]);
     change.near[s] = std::binary_search(change.near_nodes.begin(), change.near_nodes.end(), shooters[s]);
   }
 }
 
 // Direct light (lamps, world, emission) that lands sets the residual's scale, which must follow it
 // (an emitter that vanishes or appears, a shadow that moves): direct and reflected light are
-// gathered apart, direct through apply_direct_delta. (Left out: a near emitter re-sent because the
+// gathered apart, direct through apply_direct_delta. (Left out: a near emitter re-sent because an
 // object changed what its samples see of it, a small change.)
-void Solver::Impl::emit_own(const ObjectChange& change, double sign) {
+void Solver::Impl::emit_own(const ObjectsChange& change, double sign) {
   std::vector<Source> emitted = direct_sources(sign, &change.own);  // `own` as it is at the time
   if (emitted.empty()) return;
   gather_all([&](int i) { return !change.on_object(i); }, [this] { return delta_batch(); }, gather_from(emitted),
@@ -477,45 +497,50 @@ void Solver::Impl::emit_own(const ObjectChange& change, double sign) {
   apply_direct_delta();
 }
 
-// The direct light landing on the object's own points (a closed emitter lights its own inside).
-double Solver::Impl::direct_on_own(const ObjectChange& change) {
+// The direct light landing on the objects' own points (a closed emitter lights its own inside).
+double Solver::Impl::direct_on_own(const ObjectsChange& change) {
   gather_all([&](int i) { return change.on_object(i); }, [this] { return delta_batch(); },
              gather_from(direct_sources(1.0, nullptr)), kWhole);
   return landed_power();
 }
 
-void Solver::Impl::take_back_sent(ObjectChange& change) {
+void Solver::Impl::take_back_sent(ObjectsChange& change) {
   emit_own(change, -1.0);
   gather_all([&](int i) { return !change.on_object(i); }, [this] { return delta_batch(); },
              gather_from(reflected_sources(-1.0, &change.own)), kWhole);
   apply_delta(Light::reflected);
 }
 
-void Solver::Impl::keep_sources_before(ObjectChange& change) {
+void Solver::Impl::keep_sources_before(ObjectsChange& change) {
   change.others_direct = direct_sources(1.0, nullptr);
-  change.others_reflected = reflected_sources(1.0, nullptr);
+  std::vector<char> others(shooters.size());
+  for (size_t s = 0; s < shooters.size(); ++s) others[s] = !change.own[s];
+  change.others_reflected = reflected_sources(1.0, &others);
   change.near_before = direct_sources(1.0, &change.near);
   for (Source& r : reflected_sources(1.0, &change.near)) change.near_before.push_back(std::move(r));
   change.own_direct_before = direct_on_own(change);
 }
 
-void Solver::Impl::move(ObjectChange& change) {
+void Solver::Impl::move(ObjectsChange& change) {
   change.own_before = change.own;
   change.shooters_before = shooters;
-  place(change.object, change.desc, change.placed);
+  for (size_t k = 0; k < change.objects.size(); ++k) place(change.objects[k], *change.desc[k], *change.placed[k]);
   flag_shooters(change);
-  if (tree.object_root[change.object] >= 0) forget_nodes(tree.object_root[change.object]);
+  for (int object : change.objects)
+    if (tree.object_root[object] >= 0) forget_nodes(tree.object_root[object]);
   for (size_t s = 0; s < shooters.size(); ++s)
     if (change.near[s]) forget_nodes(shooters[s]);
 }
 
-// Sent again from where it is (emission only, if it just appeared: it has reflected nothing yet;
-// nothing, if it vanished: what it sent was taken back, so its totals go now); and a near shooter
-// whose light the move changed, sent anew.
-void Solver::Impl::send_again(ObjectChange& change) {
-  const ObjectPatches& o = change.patches;
-  if (!change.desc.visible)
-    for (int p = o.patch_begin; p < o.patch_end; ++p) shot[p].fill(dvec3(0.0));
+// Sent again from where they are (emission only, from one that just appeared: it has reflected
+// nothing yet; nothing, from one that vanished: what it sent was taken back, so its totals go now);
+// and a near shooter whose light the move changed, sent anew.
+void Solver::Impl::send_again(ObjectsChange& change) {
+  for (size_t k = 0; k < change.objects.size(); ++k)
+    if (!change.desc[k]->visible) {
+      const ObjectPatches& o = mesh.objects[change.objects[k]];
+      for (int p = o.patch_begin; p < o.patch_end; ++p) shot[p].fill(dvec3(0.0));
+    }
   emit_own(change, 1.0);
   std::vector<Source> resent[2] = {{}, reflected_sources(1.0, &change.own)};  // emitted, reflected
   std::vector<Source> near_after = direct_sources(1.0, &change.near);
@@ -544,25 +569,40 @@ void Solver::Impl::send_again(ObjectChange& change) {
   }
 }
 
-// Everything else: only the rays the move changed, for receivers and sources it may stand between.
-// A source is asked about each point of a group of receivers only if it may be about one of them:
-// most of a room's sources pass near no moved object for most receivers.
-void Solver::Impl::gather_changed_rays(ObjectChange& change) {
+// Everything else: only the rays the move changed, for receivers and sources the objects may stand
+// between. A source is asked about each point of a group of receivers only if it may be about one
+// of them, and then only about the objects it may be about: most of a room's sources pass near no
+// moved object for most receivers, and near one for most of the rest.
+void Solver::Impl::gather_changed_rays(ObjectsChange& change) {
   ReceiverGroups groups = group_receivers(mesh, tree, kGroupRadius * settings.shooter_size_relative * mesh.diagonal);
-  db_cache.prepare(change.object);
-  ChangedRays changed(*vis, change.object, change.zone, db_cache);
+  for (int object : change.objects) db_cache.prepare(object);
+  ChangedRays changed(*vis, change.objects, change.zones, db_cache);
   auto gather_changed = [&](const std::vector<Source>& others) {
-    std::vector<std::vector<int>> reaching(groups.bounds.size());  // per group, sources by index
-    for (size_t g = 0; g < groups.bounds.size(); ++g)
+    // Per group, the sources that may reach it, each with the zones it may reach there (in `zones`
+    // of the group, from `first`).
+    struct Reach {
+      int source, first, count;
+    };
+    std::vector<std::vector<Reach>> reaching(groups.bounds.size());
+    std::vector<std::vector<Zone>> zones(groups.bounds.size());
+    parallel_for(0, int(groups.bounds.size()), 16, [&](int g) {
       for (size_t k = 0; k < others.size(); ++k) {
         const Source& s = others[k];
-        if ((s.shooter < 0 || !change.own_before[s.shooter]) && s.may_reach(groups.bounds[g], change.zone))
-          reaching[g].push_back(int(k));
+        if (s.shooter >= 0 && change.own_before[s.shooter]) continue;
+        int first = int(zones[g].size());
+        for (const Zone& zone : change.zones)
+          if (s.may_reach(groups.bounds[g], zone)) zones[g].push_back(zone);
+        if (int(zones[g].size()) > first) reaching[g].push_back({int(k), first, int(zones[g].size()) - first});
       }
+    });
     gather_all([&](int i) { return !change.on_object(i); }, [&] { return changed_batch(changed); },
                [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+                 int g = groups.of[i];
                  long long pushed = batch.rays_pushed();
-                 for (int k : reaching[groups.of[i]]) others[k].gather(i, p, batch, &change.zone);
+                 for (const Reach& r : reaching[g]) {
+                   Zones near{zones[g].data() + r.first, r.count};
+                   others[r.source].gather(i, p, batch, &near);
+                 }
                  if (batch.rays_pushed() > pushed) touched[i] = 1;
                },
                kWhole);
@@ -574,21 +614,23 @@ void Solver::Impl::gather_changed_rays(ObjectChange& change) {
   apply_delta(Light::reflected);
 }
 
-// The object's own receiving points: everything, anew (nothing, if it vanished), each kind of
+// The objects' own receiving points: everything, anew (nothing, on one that vanished), each kind of
 // light in place of what it held of it.
-void Solver::Impl::gather_on_object(ObjectChange& change) {
-  const ObjectPatches& o = change.patches;
+void Solver::Impl::gather_on_objects(ObjectsChange& change) {
   double own_direct_after = direct_on_own(change);
-  for (int i = o.point_begin; i < o.point_end; ++i) {
-    delta_front[i] -= front[i] - reflected_front[i];
-    delta_back[i] -= back[i] - reflected_back[i];
-    touched[i] = 1;
+  for (int object : change.objects) {
+    const ObjectPatches& o = mesh.objects[object];
+    for (int i = o.point_begin; i < o.point_end; ++i) {
+      delta_front[i] -= front[i] - reflected_front[i];
+      delta_back[i] -= back[i] - reflected_back[i];
+      touched[i] = 1;
+    }
   }
   apply_delta(Light::direct);
   // Reflected light as reflected_sources() would send it now, in its order (each sum takes its
-  // terms as it would): a shooter neither on the object nor near it sends what it sent before the
-  // move (its shot is made of what did not move, and of what its samples saw of themselves, which
-  // the move left standing), so its shot made then serves.
+  // terms as it would): a shooter neither on the objects nor near them sends what it sent before
+  // the move (its shot is made of what did not move, and of what its samples saw of themselves,
+  // which the move left standing), so its shot made then serves.
   std::vector<char> changed(shooters.size());
   for (size_t s = 0; s < shooters.size(); ++s) changed[s] = change.own[s] || change.near[s];
   std::vector<Source> remade = reflected_sources(1.0, &changed);
@@ -602,14 +644,21 @@ void Solver::Impl::gather_on_object(ObjectChange& change) {
       reflected_now.push_back(&*next++);
   gather_all([&](int i) { return change.on_object(i); }, [this] { return delta_batch(); },
              gather_from(reflected_now), kWhole);
-  for (int i = o.point_begin; i < o.point_end; ++i) {
-    delta_front[i] -= reflected_front[i];
-    delta_back[i] -= reflected_back[i];
+  for (int object : change.objects) {
+    const ObjectPatches& o = mesh.objects[object];
+    for (int i = o.point_begin; i < o.point_end; ++i) {
+      delta_front[i] -= reflected_front[i];
+      delta_back[i] -= reflected_back[i];
+    }
   }
   apply_delta(Light::reflected);
   add_direct_power(own_direct_after - change.own_direct_before);
-  if (!change.desc.visible)  // what it had not sent yet goes with it (after apply_delta, which reflects into it)
-    for (int p = o.patch_begin; p < o.patch_end; ++p) unshot[p].fill(dvec3(0.0));
+  // What one that vanished had not sent yet goes with it (after apply_delta, which reflects into it).
+  for (size_t k = 0; k < change.objects.size(); ++k)
+    if (!change.desc[k]->visible) {
+      const ObjectPatches& o = mesh.objects[change.objects[k]];
+      for (int p = o.patch_begin; p < o.patch_end; ++p) unshot[p].fill(dvec3(0.0));
+    }
 }
 
 }  // namespace radiosity

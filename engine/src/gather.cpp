@@ -223,7 +223,7 @@ Sphere far_end(const ShotElement& e, double eps) { return {e.anchor, eps + e.anc
 }  // namespace
 
 RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch,
-                          const Zone* zone) {
+                          const Zones* zone) {
   const dvec3& x = point.position;
   const dvec3& n = point.normal;
   const RayStart start{receiver, x, n};

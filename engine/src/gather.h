@@ -9,8 +9,9 @@
 namespace radiosity {
 
 // Adds to the batch the rays carrying the shot's irradiance to receiving point `receiver`; with
-// `zone`, only those that may pass through it (whole clusters and cells are passed over).
+// `zone`, only those that may pass through one of its places (whole clusters and cells are passed
+// over).
 void gather(const Shot& shot, int receiver, const ReceiverPoint& point, OcclusionBatch& batch,
-            const Zone* zone = nullptr);
+            const Zones* zone = nullptr);
 
 }  // namespace radiosity

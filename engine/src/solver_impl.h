@@ -171,21 +171,22 @@ struct Solver::Impl {
   // After a material's lobes other than reflectance and emission change: every object's
   // Transmission (PatchMesh) and the panes Visibility traces.
   void take_optics();
-  Zone change_object(int object, const MeshDesc& mesh, const PlacedObject& placed);  // where it was and is
-  // change_object's steps, in their order, on what they share.
-  struct ObjectChange;
-  // Where the object was and will be, and the shooters near either place.
-  ObjectChange begin_change(int object, const MeshDesc& mesh, const PlacedObject& placed);
-  void take_back_sent(ObjectChange& change);       // what its shooters sent, from everywhere else
-  void keep_sources_before(ObjectChange& change);  // every source as it shoots before the move
-  void move(ObjectChange& change);                 // its geometry, and the shots' caches near it
-  void send_again(ObjectChange& change);           // its shooters' light and the near ones' change
-  void gather_changed_rays(ObjectChange& change);  // the rest: only the rays the move changed
-  void gather_on_object(ObjectChange& change);     // its own points: all their light anew
-  bool shoots_from(int object, int node) const;    // the cluster node's patches are the object's
-  void flag_shooters(ObjectChange& change) const;  // `own` and `near` for the cut as it is
-  void emit_own(const ObjectChange& change, double sign);  // its emission, elsewhere
-  double direct_on_own(const ObjectChange& change);        // gathered on its points; landed_power
+  // Moves, deforms, shows or hides the objects of `meshes` (as they are to be) together, each to
+  // its refined geometry in `placed`. Returns where each was and is, in their order.
+  std::vector<Zone> change_objects(const std::map<int, MeshDesc>& meshes, std::map<int, PlacedObject>& placed);
+  // change_objects' steps, in their order, on what they share.
+  struct ObjectsChange;
+  void begin_change(ObjectsChange& change);         // the shooters near where the objects were and will be
+  void take_back_sent(ObjectsChange& change);       // what their shooters sent, from everywhere else
+  void keep_sources_before(ObjectsChange& change);  // every other source as it shoots before the move
+  void move(ObjectsChange& change);                 // their geometry, and the shots' caches near it
+  void send_again(ObjectsChange& change);           // their shooters' light and the near ones' change
+  void gather_changed_rays(ObjectsChange& change);  // the rest: only the rays the move changed
+  void gather_on_objects(ObjectsChange& change);    // their own points: all their light anew
+  bool shoots_from(const ObjectsChange& change, int node) const;  // the cluster node's patches are theirs
+  void flag_shooters(ObjectsChange& change) const;  // `own` and `near` for the cut as it is
+  void emit_own(const ObjectsChange& change, double sign);  // their emission, elsewhere
+  double direct_on_own(const ObjectsChange& change);        // gathered on their points; landed_power
   std::vector<char> touched;  // per point: its light was recomputed by this update
   void place(int object, const MeshDesc& mesh, const PlacedObject& placed);  // geometry only
   void forget_nodes(int node);  // the cached views of itself of the subtree from `node`

@@ -20,8 +20,10 @@ bool sun_may_cross(const Lamp& sun, const dvec3& x, const Sphere& s) {
 
 }  // namespace
 
-void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone) const {
-  if (zone && !may_reach({point.position, 0.0}, *zone)) return;
+void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zones* zone) const {
+  if (zone && std::none_of(zone->zones, zone->zones + zone->count,
+                           [&](const Zone& z) { return may_reach({point.position, 0.0}, z); }))
+    return;
   switch (kind) {
     case Kind::Lamp:
       gather_lamp(lamp, samples, receiver, point, batch);

@@ -20,7 +20,7 @@ struct Source {
   Sphere bounds;       // holds every finite ray end (not used by suns and the world)
 
   // With `zone`, only the rays that may pass through it.
-  void gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zone* zone = nullptr) const;
+  void gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zones* zone = nullptr) const;
   // Whether some of its rays to a point within `receivers` may pass through `zone`.
   bool may_reach(const Sphere& receivers, const Zone& zone) const;
 };

@@ -35,22 +35,25 @@ RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatc
   return geom;  // Visibility::take_panes commits it
 }
 
-// What a trace's hits are filtered by: an object left out (occluded_without), and Coincident. Every
+// What a trace's hits are filtered by: objects left out (occluded_without), and Coincident. Every
 // trace passes one: the panes' filter reads it.
 struct FilterContext {
   RTCIntersectContext context;  // first: Embree hands the filter a pointer to it
   const Visibility* vis = nullptr;
-  unsigned excluded = RTC_INVALID_GEOMETRY_ID;  // instance geometry id in the top-level scene
+  const unsigned* excluded = nullptr;  // instance geometry ids in the top-level scene
+  unsigned excluded_count = 0;
   int only_object = -1;                         // the object traced alone (occluded_by)
   const Coincident* coincident = nullptr;
   Crossings* crossings = nullptr;  // rays carry light on through panes (Visibility::occluded)
 };
 
-// Whether a hit is passed over: it is on the object left out, or on a surface a Coincident ray's
+// Whether a hit is passed over: it is on an object left out, or on a surface a Coincident ray's
 // target lies under or on that the ray must see through.
 bool rejected(const FilterContext& f, const RTCFilterFunctionNArguments* args, unsigned i) {
   unsigned instance = RTCHitN_instID(args->hit, args->N, i, 0);
-  if (instance != RTC_INVALID_GEOMETRY_ID && instance == f.excluded) return true;
+  if (instance != RTC_INVALID_GEOMETRY_ID &&
+      std::find(f.excluded, f.excluded + f.excluded_count, instance) != f.excluded + f.excluded_count)
+    return true;
   if (!f.coincident) return false;
   unsigned id = RTCRayN_id(args->ray, args->N, i);
   int target = f.coincident->target_object[id];
@@ -72,7 +75,7 @@ void filter_hits(const RTCFilterFunctionNArguments* args) {
 void trace(RTCScene scene, FilterContext& ctx, RTCRay* rays, unsigned count) {
   if (ctx.crossings) ctx.crossings->clear(rays, count);
   rtcInitIntersectContext(&ctx.context);
-  if (ctx.excluded != RTC_INVALID_GEOMETRY_ID || ctx.coincident) ctx.context.filter = filter_hits;
+  if (ctx.excluded_count > 0 || ctx.coincident) ctx.context.filter = filter_hits;
   rtcOccluded1M(scene, &ctx.context, rays, count, sizeof(RTCRay));
 }
 
@@ -275,8 +278,18 @@ void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigne
 void Visibility::occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident,
                                   Crossings* crossings) const {
   FilterContext ctx;
-  ctx.vis = this, ctx.excluded = objects_.at(object).geometry, ctx.coincident = coincident;
+  ctx.vis = this, ctx.excluded = &objects_.at(object).geometry, ctx.excluded_count = 1, ctx.coincident = coincident;
   ctx.crossings = crossings;
+  trace(top_, ctx, rays, count);
+}
+
+void Visibility::occluded_without(const std::vector<int>& objects, RTCRay* rays, unsigned count,
+                                  const Coincident* coincident, Crossings* crossings) const {
+  std::vector<unsigned> geometry;
+  for (int object : objects) geometry.push_back(objects_.at(object).geometry);
+  FilterContext ctx;
+  ctx.vis = this, ctx.excluded = geometry.data(), ctx.excluded_count = unsigned(geometry.size());
+  ctx.coincident = coincident, ctx.crossings = crossings;
   trace(top_, ctx, rays, count);
 }
 

@@ -94,9 +94,11 @@ class Visibility {
   // object blocks nothing).
   void occluded_by(int object, bool before_move, RTCRay* rays, unsigned count,
                    const Coincident* coincident = nullptr) const;
-  // Rays against the whole scene except one moved object.
+  // Rays against the whole scene except one moved object, or several.
   void occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident = nullptr,
                         Crossings* crossings = nullptr) const;
+  void occluded_without(const std::vector<int>& objects, RTCRay* rays, unsigned count,
+                        const Coincident* coincident = nullptr, Crossings* crossings = nullptr) const;
 
   // Whether part of a patch may lie on a surface of an object of lower index, or on a patch of
   // lower index of its own object (within a few epsilon, facing either way): rays to it must then

@@ -22,8 +22,8 @@ DbCache::Answer find(const DbCache& cache, const RTCRay& ray, int object = 3) {
   return a;
 }
 
-// Stages rays i0..i1-1 as one gather of `object` would, answered blocked where i is odd, and commits them.
-void answer(DbCache& cache, int i0, int i1, int object = 3) {
+// Stages rays i0..i1-1 as a gather of `object` would, answered blocked where i is odd.
+void stage(DbCache& cache, int i0, int i1, int object) {
   std::vector<RTCRay> asked, traced;
   std::vector<unsigned> which;
   for (int i = i0; i < i1; ++i) {
@@ -33,6 +33,11 @@ void answer(DbCache& cache, int i0, int i1, int object = 3) {
     which.push_back(unsigned(which.size()));
   }
   cache.stage(object, asked.data(), which.data(), traced.data(), unsigned(asked.size()), 0);
+}
+
+// The same, committed: one gather of one object.
+void answer(DbCache& cache, int i0, int i1, int object = 3) {
+  stage(cache, i0, i1, object);
   cache.commit();
 }
 
@@ -78,6 +83,35 @@ TEST(DbCache, KeepsEachObjectsAnswersApart) {
   EXPECT_EQ(find(cache, ray(1), 4), DbCache::unknown);  // asked about the scene without 3 only
   EXPECT_EQ(find(cache, ray(11), 4), DbCache::blocked);
   EXPECT_EQ(find(cache, ray(11), 3), DbCache::unknown);
+}
+
+TEST(DbCache, KeepsTheAnswersOfObjectsMovedTogetherEachToItsOwn) {
+  // One gather of several movers stages their answers interleaved, as its threads trace them.
+  DbCache cache(1.0);
+  stage(cache, 0, 5, 3);
+  stage(cache, 20, 30, 4);
+  stage(cache, 5, 10, 3);
+  cache.commit();
+  EXPECT_EQ(cache.entries(), 20u);
+  EXPECT_EQ(find(cache, ray(1), 3), DbCache::blocked);
+  EXPECT_EQ(find(cache, ray(8), 3), DbCache::clear);
+  EXPECT_EQ(find(cache, ray(21), 4), DbCache::blocked);
+  EXPECT_EQ(find(cache, ray(21), 3), DbCache::unknown);
+  EXPECT_EQ(find(cache, ray(1), 4), DbCache::unknown);
+  EXPECT_EQ(cache.take_counts().misses, 20);
+}
+
+TEST(DbCache, ObjectsMovedTogetherShareOneStagingCap) {
+  const double cap = 4096;  // a quarter for staging: 32 answers
+  DbCache cache(cap / (1024 * 1024));
+  for (int object = 0; object < 4; ++object) {
+    stage(cache, 0, 30, object);
+    EXPECT_LE(cache.bytes(), cap / 4);
+  }
+  cache.commit();
+  EXPECT_LE(cache.bytes(), cap);
+  EXPECT_GT(cache.entries(), 0u);
+  EXPECT_LE(cache.entries(), 32u);
 }
 
 TEST(DbCache, ForgetsOnlyWhatAnotherObjectsMoveMayBlock) {

@@ -72,3 +72,23 @@ def test_the_db_cache_keeps_each_movers_answers_and_changes_nothing():
     there, back = cached[0][0], cached[1][0]
     assert there["db_hits"] == 0 < there["db_entries"]
     assert back["db_hits"] > 0.25 * there["db_misses"]
+
+
+def test_a_ray_near_two_movers_is_asked_about_once():
+    # Movers 0 and 1 pass by each other (frames 12-13): many rays pass near both. Moved together,
+    # such a ray is asked about once (what the two block of it, before and after); one after the
+    # other, once in each one's update. The rays each move changes are nearly the same both ways.
+    def changed_rays(together):
+        scene, ids, movers = movers_room(12, PATCH_SIZE)
+        solver = engine.Solver(scene, engine.Settings.preset("draft"))
+        solver.solve()
+        moves = [(movers[k], mover_transforms(13)[k]) for k in (0, 1)]
+        asked = 0
+        for step in ([moves] if together else [[m] for m in moves]):
+            for mover, transform in step:
+                solver.set_transform(mover, transform)
+            stats = solver.update()
+            asked += stats["db_hits"] + stats["db_misses"]
+        return asked
+
+    assert changed_rays(True) < 0.9 * changed_rays(False)
