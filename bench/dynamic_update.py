@@ -300,7 +300,7 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
     playback = {k: med([p[k] for p in plays]) for k in plays[0]} if plays else None
     # full re-solves of frames just played (same export, a new Solver), each the reference its
     # update's colours are measured against
-    full, frame_rms = [], {}
+    full, frame_rms, fresh = [], {}, {}
     for f in todo[-full_repeats:]:
         with live.suspended():
             scene.frame_set(f)
@@ -309,23 +309,31 @@ def run(name, make, frames=FRAMES, full_repeats=FULL_REPEATS):
         job.solve()
         full.append(time.perf_counter() - t)
         colours = job.colours()
-        frame_rms[f] = relative_rms(updated_colours[f], np.concatenate([colours[n][:, :3] for n in names]))
+        fresh[f] = np.concatenate([colours[n][:, :3] for n in names])
+        frame_rms[f] = relative_rms(updated_colours[f], fresh[f])
     live.forget(scene.name)
     scene.radiosity.live_update = False
     # Playback after Bake Animation: each frame's stored colours are written in frame_change_pre.
+    # Bake Animation itself, against baking each of its frames fresh: its time a frame, and each
+    # re-solved frame's stored colours against that frame's fresh solve.
     scene.frame_start, scene.frame_end = todo[0], todo[-1]
+    t = time.perf_counter()
     assert bpy.ops.radiosity.bake_animation() == {'FINISHED'}
-    baked = []
+    animation = (time.perf_counter() - t) / (todo[-1] - todo[0] + 1)
+    baked, animation_rms = [], {}
     for f in todo:
         t = time.perf_counter()
         scene.frame_set(f)
         baked.append(time.perf_counter() - t)
+        if f in fresh:
+            animation_rms[f] = relative_rms(shown(scene, names), fresh[f])
     threshold = pkg.settings.engine_settings(scene.radiosity).threshold
     return dict(scene=name, vertices=verts, points=first["points"], frames=len(todo), full=med(full),
                 frame_rms=frame_rms, by_frame=dict(zip(todo, upd)),
                 threshold=threshold,
                 update=med(upd), incremental=med(inc), frame=med(frame_wall), write=med(writes),
-                touched=med(touched), first=first["seconds_solve"], baked=med(baked), db=db, db_mb=db_mb,
+                touched=med(touched), first=first["seconds_solve"], baked=med(baked), animation=animation,
+                animation_rms=animation_rms, db=db, db_mb=db_mb,
                 db_cap=scene.radiosity.db_cache_mb, playback=playback, fps=scene.render.fps / scene.render.fps_base)
 
 
@@ -406,7 +414,9 @@ def save(rows):
             update_s=f"{r['update']:.3f}", ratio=f"{r['full'] / r['update']:.1f}" if r["update"] > 0 else "",
             rms_updated=f"{max(r['frame_rms'].values()):.4f}",
             touched=f"{r['touched']:.3f}", live_s=f"{r['incremental']:.3f}", frame_s=f"{r['frame']:.3f}",
-            baked_fps=f"{1 / r['baked']:.0f}", playing_fps=f"{p['fps']:.1f}" if p else "",
+            baked_fps=f"{1 / r['baked']:.0f}", animation_s=f"{r['animation']:.3f}",
+            animation_ratio=f"{r['full'] / r['animation']:.1f}",
+            rms_animation=f"{max(r['animation_rms'].values()):.4f}", playing_fps=f"{p['fps']:.1f}" if p else "",
             frames_per_update=f"{p['span']:.1f}" if p else "", residual=f"{p['residual']:.4f}" if p else "",
             rms_playing=f"{p['playing']:.4f}" if p else "", rms_settled=f"{p['settled']:.4f}" if p else "",
             settle_s=f"{p['settle']:.3f}" if p else ""))
@@ -417,12 +427,17 @@ def save(rows):
                   ("rms_updated", "RMS updated (worst)", tables.percent),
                   ("live_s", "live update", tables.seconds), ("playing_fps", "playing fps", None),
                   ("frames_per_update", "frames an update", None), ("rms_playing", "RMS playing", tables.percent),
-                  ("rms_settled", "RMS settled", tables.percent), ("baked_fps", "baked playback fps", None)],
+                  ("rms_settled", "RMS settled", tables.percent),
+                  ("animation_s", "Bake Animation a frame", tables.seconds),
+                  ("animation_ratio", "full / Bake Animation", None),
+                  ("rms_animation", "RMS Bake Animation (worst)", tables.percent),
+                  ("baked_fps", "baked playback fps", None)],
                  how + " full: a new solver and solve of a played frame; update: Solver.update() of a frame "
                  "change; live update: export + diff + update + colours + write-back; playing: the frame range "
                  "played as the UI plays it (updates in a worker, a frame's time of shooting each), its colours "
-                 "against a fresh solve of the last frame while playing and once settled; baked playback: "
-                 "after Bake Animation, each frame's stored colours written.")
+                 "against a fresh solve of the last frame while playing and once settled; Bake Animation: its "
+                 "time over the frame range a frame, and the re-solved frames' stored colours against their fresh "
+                 "solves; baked playback: after Bake Animation, each frame's stored colours written.")
     moves = [dict(scene=r["scene"], way=way, cpu_s=f"{d['cpu']:.3f}", rays=f"{d['rays']:.0f}",
                   changed=f"{d['changed']:.0f}", hits=f"{d['hits']:.0f}",
                   hit_share=f"{d['hits'] / max(1, d['changed']):.3f}", cache_mb=f"{r['db_mb']:.1f}",
