@@ -11,7 +11,7 @@ against its Cycles image bake at 8,192 samples (seed 0), over the texels that ba
   cycles  lightmap_reference.bake (its settings, DESIGN.md section 4) of the same objects into the
           same maps and image sizes at --spp samples, seed 1 so that its samples are not the
           reference's own; seconds = the bake operator.
-Runs under 10 s are repeated (3 in all) and the median time kept.
+Runs under 10 s are repeated (3 in all) and the median times kept.
 
 Errors are relative RMS (reference.relative_rms). `rms` is against the reference as it is; the
 reference holds noise of its own, n_ref, which at 1% is most of the error. Cycles at N samples and
@@ -23,7 +23,9 @@ Speed-up at an error e: Cycles' time at e on the log-log line between its neighb
 (accuracy_vs_time.cycles_time_at; extended past its ends, and the note says so) over ours: the time
 of the quickest preset whose error is e or less (a preset is what a user can pick), and our time on
 the log-log line between the presets either side of e (as Cycles' is taken; settings between the
-presets' exist). Rows at each preset's own error, at 2% and at 1%.
+presets' exist). Rows at each preset's own error, at 2% and at 1%. The same in CPU time (the
+process's, all threads, over the same span): what a bake costs whatever else the machine runs, which
+on a shared machine moves less than the wall time.
 
 Writes bench/results/lightmap_accuracy_vs_time.csv and .md (the measurements),
 lightmap_accuracy_vs_time_speedup.csv and .md (the speed-ups) and lightmap_accuracy_vs_time.png.
@@ -34,7 +36,9 @@ Every row is saved as soon as it is measured; rows of cases not run are kept fro
 import csv
 import math
 import os
+import statistics
 import sys
+import time
 
 import bpy
 import numpy as np
@@ -56,17 +60,18 @@ SPP = [16, 64, 256, 1024, 4096]
 NOISE_SPP = 1024          # bakes from this many samples on estimate the reference's noise
 TARGETS = [0.02, 0.01]
 NAME = "lightmap_accuracy_vs_time"
-FIELDS = ["scene", "method", "setting", "seconds", "texels", "rms", "net", "load1", "note"]
+FIELDS = ["scene", "method", "setting", "seconds", "cpu", "texels", "rms", "net", "load1", "note"]
 COLUMNS = [("scene", "scene", None), ("method", "method", None), ("setting", "preset / spp", None),
-           ("seconds", "time", tables.seconds), ("texels", "texels", tables.count),
+           ("seconds", "time", tables.seconds), ("cpu", "CPU time", tables.seconds), ("texels", "texels", tables.count),
            ("rms", "relative RMS", tables.percent), ("net", "net of the reference's noise", tables.percent)]
 SPEEDUP_FIELDS = ["scene", "basis", "error", "ours", "ours_seconds", "cycles_seconds", "speedup", "between_seconds",
-                  "between_speedup", "note"]
+                  "between_speedup", "cpu_speedup", "note"]
 SPEEDUP_COLUMNS = [("scene", "scene", None), ("basis", "error", None), ("error", "at", tables.percent),
                    ("ours", "ours", None), ("ours_seconds", "our time", tables.seconds),
                    ("cycles_seconds", "Cycles' time", tables.seconds), ("speedup", "Cycles / ours", tables.fixed(1)),
                    ("between_seconds", "ours between presets", tables.seconds),
-                   ("between_speedup", "Cycles / that", tables.fixed(1)), ("note", "note", None)]
+                   ("between_speedup", "Cycles / that", tables.fixed(1)),
+                   ("cpu_speedup", "in CPU time: Cycles / ours", tables.fixed(1)), ("note", "note", None)]
 MACHINE = ("Times on a shared 2-core machine (the CSV's load1 column gives the load average at each row): "
            "they move with its load.")
 NOTES = ("Relative RMS over the texels Cycles' 8,192-sample image bake covers (lightmap_reference.py), "
@@ -76,7 +81,8 @@ NOTES = ("Relative RMS over the texels Cycles' 8,192-sample image bake covers (l
          "operator for Cycles; median of 3 under 10 s. " + MACHINE)
 SPEEDUP_NOTES = ("Cycles' time at the error (log-log between its sample counts) over ours: the quickest "
                  "preset at that error or under it (what picking a preset gives), and our time on the log-log "
-                 "line between the presets either side of the error (as Cycles' is taken). net: errors with "
+                 "line between the presets either side of the error (as Cycles' is taken); then the first "
+                 "ratio in CPU time (the process's, all threads). net: errors with "
                  "the reference's noise taken out (what the speed-up is quoted on); raw: as measured, where "
                  "both sides level off at the reference's noise. " + MACHINE)
 
@@ -99,23 +105,40 @@ def label(name, frame):
 
 
 # ----------------------------------------------------------------------------- runs
+def timed(run):
+    """run() -> (seconds, cpu seconds, result): the first result and the median times of 3 runs if the
+    first is under 10 s (accuracy_vs_time.median_time)."""
+    seconds, cpu, result = run()
+    cpus = [cpu]
+
+    def again():
+        seconds, cpu, _ = run()
+        cpus.append(cpu)
+        return seconds
+    seconds = accuracy_vs_time.median_time(again, seconds)
+    return seconds, statistics.median(cpus), result
+
+
 def run_ours(name, frame, preset):
-    """Our bake with lightmaps, the median time of 3 if under 10 s."""
-    first = lightmaps_vs_cycles.measure(name, frame, preset)
-    seconds = accuracy_vs_time.median_time(
-        lambda: float(lightmaps_vs_cycles.measure(name, frame, preset)["seconds"]), float(first["seconds"]))
-    return dict(scene=first["scene"], method="ours", setting=preset, seconds=f"{seconds:.3f}",
+    """Our bake with lightmaps."""
+    def once():
+        row = lightmaps_vs_cycles.measure(name, frame, preset)
+        return float(row["seconds"]), float(row["cpu"]), row
+    seconds, cpu, first = timed(once)
+    return dict(scene=first["scene"], method="ours", setting=preset, seconds=f"{seconds:.3f}", cpu=f"{cpu:.3f}",
                 texels=first["texels"], rms=first["rms"], load1=f"{os.getloadavg()[0]:.2f}", note=first["objects"])
 
 
 def cycles_once(name, frame, spp):
     """Cycles' image bake of the reference's objects into its maps and image sizes. Returns
-    (relative RMS against the reference, texels, seconds)."""
+    (seconds, cpu seconds, (relative RMS against the reference, texels))."""
     ref = lightmap_reference.open_with_reference(name, frame)
     names = lightmap_reference.objects_of(ref)
     objects = {n: bpy.data.objects[n] for n in names}
     sizes = {n: ref[n].shape[1::-1] for n in names}
+    cpu = time.process_time()
     images, seconds = lightmap_reference.bake(objects, sizes, spp, accuracy_vs_time.CYCLES_SEED)
+    cpu = time.process_time() - cpu
     ours, theirs = [], []
     for n in names:
         covered = ref[n][..., 0] >= 0
@@ -123,14 +146,13 @@ def cycles_once(name, frame, spp):
         ours.append(images[n][covered])
         theirs.append(ref[n][covered].astype(np.float64))
     ours, theirs = np.concatenate(ours), np.concatenate(theirs)
-    return reference.relative_rms(ours, theirs), len(ours), seconds
+    return seconds, cpu, (reference.relative_rms(ours, theirs), len(ours))
 
 
 def run_cycles(name, frame, spp):
-    rms, texels, first = cycles_once(name, frame, spp)
-    seconds = accuracy_vs_time.median_time(lambda: cycles_once(name, frame, spp)[2], first)
+    seconds, cpu, (rms, texels) = timed(lambda: cycles_once(name, frame, spp))
     return dict(scene=label(name, frame), method="cycles", setting=str(spp), seconds=f"{seconds:.3f}",
-                texels=str(texels), rms=f"{rms:.5f}", load1=f"{os.getloadavg()[0]:.2f}", note="")
+                cpu=f"{cpu:.3f}", texels=str(texels), rms=f"{rms:.5f}", load1=f"{os.getloadavg()[0]:.2f}", note="")
 
 
 # ----------------------------------------------------------------------------- errors and speed-ups
@@ -162,7 +184,7 @@ def with_noise(rows):
             out.append(dict(r, net=net))
         if n_ref is not None:
             out.append(dict(scene=scene, method="noise", setting=str(reference_samples(scene)), seconds="",
-                            texels="", rms=f"{n_ref:.5f}", net="", load1="",
+                            cpu="", texels="", rms=f"{n_ref:.5f}", net="", load1="",
                             note=f"the reference's own, from Cycles at {NOISE_SPP} spp and more"))
     return out
 
@@ -188,7 +210,8 @@ def speedups(rows):
             errors = [(float(r[col]), r["setting"]) for r in ours] + [(e, f"{e:.0%}") for e in TARGETS]
             for err, what in errors:
                 row = dict(scene=scene, basis=basis, error=f"{err:.5f}", ours="", ours_seconds="",
-                           cycles_seconds="", speedup="", between_seconds="", between_speedup="", note="")
+                           cycles_seconds="", speedup="", between_seconds="", between_speedup="", cpu_speedup="",
+                           note="")
                 quickest = next((r for r in ours if float(r[col]) <= err), None)
                 if quickest is None:
                     best = min(ours, key=lambda r: float(r[col]))
@@ -197,6 +220,9 @@ def speedups(rows):
                     continue
                 seconds, note = accuracy_vs_time.cycles_time_at(cyc, err, col)
                 between = float(quickest["seconds"]) if quickest is ours[0] else between_presets(ours, col, err)
+                if quickest.get("cpu") and all(r.get("cpu") for r in cyc):
+                    cpu = accuracy_vs_time.cycles_time_at([dict(r, seconds=r["cpu"]) for r in cyc], err, col)[0]
+                    row.update(cpu_speedup=f"{cpu / float(quickest['cpu']):.3f}")
                 row.update(ours=quickest["setting"], ours_seconds=quickest["seconds"],
                            cycles_seconds=f"{seconds:.3f}", speedup=f"{seconds / float(quickest['seconds']):.3f}",
                            between_seconds=f"{between:.3f}", between_speedup=f"{seconds / between:.3f}",
