@@ -252,9 +252,12 @@ def report(rows, speedup_rows):
 
 # ----------------------------------------------------------------------------- plot
 def plot(rows, path):
+    """Error against wall time, one panel a scene; below, against CPU time where the rows have it."""
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     have = [r for r in rows if r["method"] in ("ours", "cycles")]
-    xlim = accuracy_vs_time.nice_range([float(r["seconds"]) for r in have])
+    times = [(x, label) for x, label in (("seconds", "wall time (s)"), ("cpu", "CPU time (s)"))
+             if any(r.get(x) for r in have)]
+    xlim = accuracy_vs_time.nice_range([float(r[x]) for r in have for x, _ in times if r.get(x)])
     ylim = accuracy_vs_time.nice_range([float(r[k]) for r in have for k in ("rms", "net") if r.get(k)]
                                        + TARGETS)
     steps = [m * 10.0 ** k for k in range(-4, 5) for m in (1, 2, 5)]
@@ -264,35 +267,37 @@ def plot(rows, path):
               ("cycles", "net", (214, 39, 40), "s", 0, "Cycles, net"),
               ("ours", "rms", (120, 170, 215), "o", 6, "ours, raw"),
               ("cycles", "rms", (235, 140, 140), "s", 6, "Cycles, raw")]
-    pw, ph, left, top, gap = 360, 340, 120, 50, 40
+    pw, ph, left, top, gap, vgap = 360, 340, 120, 50, 40, 100
     width = max(left + len(scenes) * (pw + gap), 900)
-    c = plot_png.Canvas(width, top + ph + 190)
-    for k, sc in enumerate(scenes):
-        x0 = left + k * (pw + gap)
-        ax = plot_png.LogAxes(c, (x0, top, x0 + pw, top + ph), xlim, ylim, "wall time (s)",
-                              "relative RMS error" if k == 0 else "", sc)
-        ax.frame(decades, [v for v in steps if ylim[0] <= v <= ylim[1]], fmt_y=lambda v: f"{v * 100:g}%",
-                 ylabels=(k == 0))
-        for target in TARGETS:
-            ax.hline(target, (120, 120, 120), f"{target:.0%}")
-        labelled = "net" if any(r["scene"] == sc and r.get("net") for r in have) else "rms"
-        for method, col, color, marker, dash, _ in styles:
-            sel = sorted((r for r in have if r["scene"] == sc and r["method"] == method and r.get(col)
-                          and float(r[col]) > ylim[0]), key=lambda r: float(r["seconds"]))
-            ax.polyline([(float(r["seconds"]), float(r[col])) for r in sel], color, marker, dash=dash,
-                        labels=[r["setting"] for r in sel] if col == labelled else None,
-                        label_side="r" if method == "ours" else "l")
-    y = top + ph + 70
+    c = plot_png.Canvas(width, top + len(times) * (ph + vgap) + 90)
+    for j, (x, xlabel) in enumerate(times):
+        y0 = top + j * (ph + vgap)
+        for k, sc in enumerate(scenes):
+            x0 = left + k * (pw + gap)
+            ax = plot_png.LogAxes(c, (x0, y0, x0 + pw, y0 + ph), xlim, ylim, xlabel,
+                                  "relative RMS error" if k == 0 else "", sc)
+            ax.frame(decades, [v for v in steps if ylim[0] <= v <= ylim[1]], fmt_y=lambda v: f"{v * 100:g}%",
+                     ylabels=(k == 0))
+            for target in TARGETS:
+                ax.hline(target, (120, 120, 120), f"{target:.0%}")
+            labelled = "net" if any(r["scene"] == sc and r.get("net") for r in have) else "rms"
+            for method, col, color, marker, dash, _ in styles:
+                sel = sorted((r for r in have if r["scene"] == sc and r["method"] == method and r.get(col)
+                              and r.get(x) and float(r[col]) > ylim[0]), key=lambda r: float(r[x]))
+                ax.polyline([(float(r[x]), float(r[col])) for r in sel], color, marker, dash=dash,
+                            labels=[r["setting"] for r in sel] if col == labelled else None,
+                            label_side="r" if method == "ours" else "l")
+    y = top + len(times) * (ph + vgap) - 30
     for i, (_, _, color, marker, dash, text) in enumerate(styles):
-        x, yy = left + (i % 2) * 240, y + 30 * (i // 2)
-        c.line(x - 14, yy + 7, x + 14, yy + 7, color, 2, dash)
-        c.dot(x, yy + 7, 6, color, marker)
-        c.text(x + 24, yy, text, (0, 0, 0), 2)
+        xx = left + i * 200
+        c.line(xx - 14, y + 7, xx + 14, y + 7, color, 2, dash)
+        c.dot(xx, y + 7, 6, color, marker)
+        c.text(xx + 24, y, text, (0, 0, 0), 2)
     notes = ["Error over the texels against Cycles' image bake at 8,192 spp; net: with that bake's own noise",
-             "taken out. Time: the whole bake with lightmaps (ours), the bake operator (Cycles). Labels: preset",
-             "(ours), samples per pixel (Cycles). 2 cores, shared: see the CSV's load column."]
+             "taken out. Time: the whole bake with lightmaps (ours), the bake operator (Cycles); CPU time: the",
+             "process's, all threads. Labels: preset (ours), samples per pixel (Cycles). 2 cores, shared."]
     for i, line in enumerate(notes):
-        c.text(left, y + 66 + 14 * i, line, (90, 90, 90), 1)
+        c.text(left, y + 36 + 14 * i, line, (90, 90, 90), 1)
     c.save(path)
 
 
