@@ -64,16 +64,21 @@ FIELDS = ["scene", "method", "setting", "seconds", "cpu", "texels", "rms", "net"
 COLUMNS = [("scene", "scene", None), ("method", "method", None), ("setting", "preset / spp", None),
            ("seconds", "time", tables.seconds), ("cpu", "CPU time", tables.seconds), ("texels", "texels", tables.count),
            ("rms", "relative RMS", tables.percent), ("net", "net of the reference's noise", tables.percent)]
+def ratio(s):
+    return f"{float(s):.3g}"
+
+
 SPEEDUP_FIELDS = ["scene", "basis", "error", "ours", "ours_seconds", "cycles_seconds", "speedup", "between_seconds",
                   "between_speedup", "cpu_speedup", "note"]
 SPEEDUP_COLUMNS = [("scene", "scene", None), ("basis", "error", None), ("error", "at", tables.percent),
                    ("ours", "ours", None), ("ours_seconds", "our time", tables.seconds),
-                   ("cycles_seconds", "Cycles' time", tables.seconds), ("speedup", "Cycles / ours", tables.fixed(1)),
+                   ("cycles_seconds", "Cycles' time", tables.seconds), ("speedup", "Cycles / ours", ratio),
                    ("between_seconds", "ours between presets", tables.seconds),
-                   ("between_speedup", "Cycles / that", tables.fixed(1)),
-                   ("cpu_speedup", "in CPU time: Cycles / ours", tables.fixed(1)), ("note", "note", None)]
-MACHINE = ("Times on a shared 2-core machine (the CSV's load1 column gives the load average at each row): "
-           "they move with its load.")
+                   ("between_speedup", "Cycles / that", ratio),
+                   ("cpu_speedup", "in CPU time: Cycles / ours", ratio), ("note", "note", None)]
+MACHINE = ("Times on a 2-core machine shared with other work, the bench under nice (the CSV's load1 column "
+           "gives the load average at each row): wall times move with that load from run to run, CPU times "
+           "(the process's, all threads) much less.")
 NOTES = ("Relative RMS over the texels Cycles' 8,192-sample image bake covers (lightmap_reference.py), "
          "shadow edges and feet included. net: with the reference's own noise n_ref taken out "
          "(sqrt(rms^2 - n_ref^2)); n_ref from Cycles' bakes at 1,024 samples and more (seed 1 against "
@@ -267,7 +272,7 @@ def plot(rows, path):
               ("cycles", "net", (214, 39, 40), "s", 0, "Cycles, net"),
               ("ours", "rms", (120, 170, 215), "o", 6, "ours, raw"),
               ("cycles", "rms", (235, 140, 140), "s", 6, "Cycles, raw")]
-    pw, ph, left, top, gap, vgap = 360, 340, 120, 50, 40, 100
+    pw, ph, left, top, gap, vgap = 360, 340, 120, 50, 64, 100
     width = max(left + len(scenes) * (pw + gap), 900)
     c = plot_png.Canvas(width, top + len(times) * (ph + vgap) + 90)
     for j, (x, xlabel) in enumerate(times):
