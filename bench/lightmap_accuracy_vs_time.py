@@ -1,7 +1,7 @@
 """Accuracy against time at the texels: our presets' lightmaps and Cycles' image bake of the same images.
 
     blender -b --factory-startup --python bench/lightmap_accuracy_vs_time.py -- [--scenes cornell_box,...]
-        [--presets draft,default,high] [--spp 16,64,256,1024,4096] [--resume] [--quick]
+        [--presets draft,default,high] [--spp 16,64,256,512,1024,2048,4096] [--resume] [--quick]
     blender -b --factory-startup --python bench/lightmap_accuracy_vs_time.py -- --plot-only
 
 For each sample scene of tests/cycles_reference/lightmap_reference.py (the animated room at frame 1),
@@ -31,7 +31,9 @@ Writes bench/results/lightmap_accuracy_vs_time.csv and .md (the measurements),
 lightmap_accuracy_vs_time_speedup.csv and .md (the speed-ups) and lightmap_accuracy_vs_time.png.
 Every row is saved as soon as it is measured; rows of cases not run are kept from the CSV, and
 --resume skips the cases the CSV already has, so an interrupted run goes on where it stopped.
---quick: cornell_box, draft and default, Cycles at 16/64/256, into *_quick.* files.
+--quick: cornell_box, draft and default, Cycles at 16/64/256, into *_quick.* files (about a minute).
+The full run takes about 25 minutes, most of it Cycles at 2,048 and 4,096 samples and High on the
+interior room.
 """
 import csv
 import math
@@ -55,19 +57,22 @@ import plot_png  # noqa: E402
 import reference  # noqa: E402
 import tables  # noqa: E402
 
+
+def ratio(s):
+    """A speed-up's table format: three figures, so that 0.058 shows as well as 23.4."""
+    return f"{float(s):.3g}"
+
+
 PRESETS = ["draft", "default", "high"]
-SPP = [16, 64, 256, 1024, 4096]
+SPP = [16, 64, 256, 512, 1024, 2048, 4096]
 NOISE_SPP = 1024          # bakes from this many samples on estimate the reference's noise
 TARGETS = [0.02, 0.01]
 NAME = "lightmap_accuracy_vs_time"
 FIELDS = ["scene", "method", "setting", "seconds", "cpu", "texels", "rms", "net", "load1", "note"]
 COLUMNS = [("scene", "scene", None), ("method", "method", None), ("setting", "preset / spp", None),
-           ("seconds", "time", tables.seconds), ("cpu", "CPU time", tables.seconds), ("texels", "texels", tables.count),
+           ("seconds", "time", tables.seconds), ("cpu", "CPU time", tables.seconds),
+           ("texels", "texels", tables.count),
            ("rms", "relative RMS", tables.percent), ("net", "net of the reference's noise", tables.percent)]
-def ratio(s):
-    return f"{float(s):.3g}"
-
-
 SPEEDUP_FIELDS = ["scene", "basis", "error", "ours", "ours_seconds", "cycles_seconds", "speedup", "between_seconds",
                   "between_speedup", "cpu_speedup", "note"]
 SPEEDUP_COLUMNS = [("scene", "scene", None), ("basis", "error", None), ("error", "at", tables.percent),
@@ -144,14 +149,12 @@ def cycles_once(name, frame, spp):
     cpu = time.process_time()
     images, seconds = lightmap_reference.bake(objects, sizes, spp, accuracy_vs_time.CYCLES_SEED)
     cpu = time.process_time() - cpu
-    ours, theirs = [], []
+    covered = {n: ref[n][..., 0] >= 0 for n in names}
     for n in names:
-        covered = ref[n][..., 0] >= 0
-        assert np.array_equal(covered, images[n][..., 0] >= 0), f"{n}: Cycles covered other texels"
-        ours.append(images[n][covered])
-        theirs.append(ref[n][covered].astype(np.float64))
-    ours, theirs = np.concatenate(ours), np.concatenate(theirs)
-    return seconds, cpu, (reference.relative_rms(ours, theirs), len(ours))
+        assert np.array_equal(covered[n], images[n][..., 0] >= 0), f"{n}: Cycles covered other texels"
+    baked = np.concatenate([images[n][covered[n]] for n in names])
+    truth = np.concatenate([ref[n][covered[n]].astype(np.float64) for n in names])
+    return seconds, cpu, (reference.relative_rms(baked, truth), len(baked))
 
 
 def run_cycles(name, frame, spp):
