@@ -31,13 +31,13 @@ def measure(scene_name, frame, preset):
     props = bpy.context.scene.radiosity
     props.preset = preset.upper()
     props.lightmaps = True
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     assert bpy.ops.radiosity.bake() == {'FINISHED'}
-    seconds = time.perf_counter() - start
+    seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     pairs = lightmap_reference.texel_pairs(ref)
     ours, cycles = (np.concatenate([p[k] for p in pairs.values()]) for k in (0, 1))
     row = dict(scene=scene_name + ("" if frame is None else f"@{frame}"), preset=preset, seconds=f"{seconds:.2f}",
-               texels=len(ours), rms=f"{reference.relative_rms(ours, cycles):.5f}",
+               cpu=f"{cpu:.2f}", texels=len(ours), rms=f"{reference.relative_rms(ours, cycles):.5f}",
                objects=" ".join(f"{n} {100 * reference.relative_rms(*p):.2f}%" for n, p in pairs.items()))
     print(row, flush=True)
     return row
