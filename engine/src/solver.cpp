@@ -125,7 +125,10 @@ RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light ligh
       reflected_back[i] += delta_back[i];
     }
   };
-  auto add_to_patch = [&](int p) {
+  // A shot's light landing, per side of its shooter (measure_landing): a receiver in front of a flat
+  // shooter's plane takes its front side's light only; a shooter that is not flat, all on side 0.
+  const ClusterNode* from = sent >= 0 ? &tree.nodes[shooters[sent]] : nullptr;
+  auto add_to_patch = [&](int p, std::array<double, 2>& landed) {
     if (sent >= 0 && patch_shooter[p] == sent)
       for (int k = 0; k < 8; ++k) {
         shot[p][k] += omega * unshot[p][k];
@@ -134,29 +137,39 @@ RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light ligh
     const Patch& patch = mesh.patches[p];
     if (patch.area != 0) {
       for (int c = 0; c < 4; ++c) {
+        int pt = patch.point[c];
         const dvec3& rho = mesh.reflectance[4 * p + c];
         dvec3 r = reflected ? mesh.onward[4 * p + c] * rho : rho;
-        unshot[p][c * 2 + 0] += r * delta_front[patch.point[c]];
-        unshot[p][c * 2 + 1] += r * delta_back[patch.point[c]];
+        unshot[p][c * 2 + 0] += r * delta_front[pt];
+        unshot[p][c * 2 + 1] += r * delta_back[pt];
+        if (from) {
+          int side = from->flat && glm::dot(mesh.points[pt].position - from->centroid, from->vector_area) < 0;
+          landed[side] += 0.25 * patch.area * channel_sum(delta_front[pt] + delta_back[pt]);
+        }
       }
     }
     patch_power[p] = landing_power(p);
   };
+  landed_sides = {0.0, 0.0};
   // The patches read only the delta: points and patches are one loop, with one join. A small scene's
   // loop is over sooner than a thread would wake for it.
   if (points + patches <= 16 * kParallelMinimum) {
     for (int i = 0; i < points; ++i) add_to_point(i);
-    for (int p = 0; p < patches; ++p) add_to_patch(p);
+    for (int p = 0; p < patches; ++p) add_to_patch(p, landed_sides);
     return;
   }
   constexpr int kChunk = 1024;
   int point_chunks = (points + kChunk - 1) / kChunk;
-  parallel_for(0, point_chunks + (patches + kChunk - 1) / kChunk, 1, [&](int k) {
+  int patch_chunks = (patches + kChunk - 1) / kChunk;
+  std::vector<std::array<double, 2>> landed(patch_chunks, {0.0, 0.0});  // per chunk, summed in order
+  parallel_for(0, point_chunks + patch_chunks, 1, [&](int k) {
     if (k < point_chunks)
       for (int i = k * kChunk, end = std::min(points, i + kChunk); i < end; ++i) add_to_point(i);
     else
-      for (int p = (k - point_chunks) * kChunk, end = std::min(patches, p + kChunk); p < end; ++p) add_to_patch(p);
+      for (int p = (k - point_chunks) * kChunk, end = std::min(patches, p + kChunk); p < end; ++p)
+        add_to_patch(p, landed[k - point_chunks]);
   });
+  for (const auto& part : landed) landed_sides[0] += part[0], landed_sides[1] += part[1];
 }
 
 std::vector<double> Solver::Impl::summed_power() const {
@@ -263,13 +276,7 @@ void Solver::Impl::take_reference() {
 // the other keeps its share.
 double Solver::Impl::measure_landing(int s, const std::array<double, 2>& sent, const std::array<double, 2>& magnitude) {
   const ClusterNode& n = tree.nodes[shooters[s]];
-  std::array<double, 2> landed{0.0, 0.0};
-  for (const Patch& patch : mesh.patches)
-    for (int c = 0; c < 4; ++c) {
-      int pt = patch.point[c];
-      int side = n.flat && glm::dot(mesh.points[pt].position - n.centroid, n.vector_area) < 0;
-      landed[side] += 0.25 * patch.area * channel_sum(delta_front[pt] + delta_back[pt]);
-    }
+  const std::array<double, 2>& landed = landed_sides;
   double total = magnitude[0] + magnitude[1];
   double signed_total = sent[0] + sent[1];
   // Light of both signs (an update's, over-relaxation's overshoot) cancels where it lands: the ratio

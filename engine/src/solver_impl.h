@@ -136,9 +136,11 @@ struct Solver::Impl {
   enum class Light { direct, reflected };
   void apply_delta(Light light);
   // apply_delta(), after shooter `sent` (if any) moves `omega` times its unshot radiance to what it
-  // has shot. Leaves each patch's share of shooter_power() in patch_power, read in the same pass.
+  // has shot. Leaves each patch's share of shooter_power() in patch_power, and where the shooter's
+  // light landed in landed_sides, read in the same pass.
   void absorb_delta(int sent, double omega, Light light);
   std::vector<double> patch_power;
+  std::array<double, 2> landed_sides{0.0, 0.0};  // per side of the shooter (measure_landing)
   std::vector<double> summed_power() const;  // shooter_power() from patch_power
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
   void apply_direct_delta();    // apply_delta() of direct light, for a change of it: the residual's scale follows
