@@ -17,26 +17,34 @@ namespace radiosity {
 namespace {
 
 double abs_sum(const dvec3& v) { return std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z); }
-// A patch's unshot radiance times its area, over its corners and sides.
-double unshot_power(const CornerUnshot& unshot, double area) {
+// A patch's unshot radiance times its area, over its corners, on one side (0 front, 1 back).
+double unshot_power(const CornerUnshot& unshot, double area, int side) {
   double sum = 0.0;
-  for (const dvec3& u : unshot) sum += abs_sum(u);
+  for (int c = 0; c < 4; ++c) sum += abs_sum(unshot[2 * c + side]);
   return 0.25 * area * sum;
 }
 constexpr double kProgressInterval = 0.05;  // seconds between progress callbacks
 // At the default threshold, about a shooter's even share of the light put in (150-230 shooters).
 constexpr double kFullSamplesAbove = 8.0;
+// Landing shares (measure_landing): a flat shooter's side sending less than kMeasuredSide of a shot
+// keeps its share, and so does light whose sum is under kOneSign of its size (of both signs). The
+// residual's scale does not fall below kLandingFloor of the light reflected in the direct pass.
+constexpr double kMeasuredSide = 1e-3;
+constexpr double kOneSign = 0.9;
+constexpr double kLandingFloor = 1e-9;
 constexpr double kDiverged = 10.0;  // growth of the residual past which shooting cannot be converging
 // Residual, in thresholds, below which an update shoots without over-relaxation (relaxation()).
 constexpr double kRelaxAbove = 2.0;
-// Automatic over-relaxation (Settings::relaxation 0): the first kMeasuredShots shots, at 1.0, measure
-// the share of their light that comes back to be shot again, and the relaxation follows it: the
-// best relaxation grows with that share, from 1.0 for boxes in the sun (little comes back) to about
-// 1.2 for closed rooms, and the error against Cycles does not depend on it.
+// Automatic over-relaxation (Settings::relaxation 0): the first kMeasuredShots shots landing at least
+// kMeasuredLanding of their light, at 1.0, measure the share of the light that lands which comes
+// back to be shot again, and the relaxation follows it: the best relaxation grows with that share,
+// from 1.0 for boxes in the sun (little comes back) to about 1.2 for closed rooms, and the error
+// against Cycles does not depend on it.
 // Each propagate measures anew. An update's light is signed, and light landing on light of the
 // other sign cancels, which the measure (of |unshot|) rightly counts as not come back: an update
 // shooting on at the solve's value takes more rays.
 constexpr int kMeasuredShots = 8;
+constexpr double kMeasuredLanding = 0.5;
 double relaxation_for(double returned) { return 1.0 + 0.3 * std::clamp(returned, 0.0, 1.0); }
 
 // Checked before any member is built from them (the dB cache sizes itself from db_cache_mb).
@@ -73,6 +81,8 @@ void Solver::Impl::fit_to_mesh(int first_object) {
   none.fill(dvec3(0.0));
   unshot.resize(mesh.patches.size(), none);
   shot.resize(mesh.patches.size(), none);
+  landing.resize(mesh.patches.size(), {1.0, 1.0});
+  reference_part.resize(mesh.patches.size(), {0.0, 0.0});
   hidden_point.resize(mesh.points.size(), 0);
   for (size_t o = first_object; o < scene.meshes.size(); ++o) mark_hidden(int(o));
   cut_shooters();
@@ -115,7 +125,10 @@ RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light ligh
       reflected_back[i] += delta_back[i];
     }
   };
-  auto add_to_patch = [&](int p) {
+  // A shot's light landing, per side of its shooter (measure_landing): a receiver in front of a flat
+  // shooter's plane takes its front side's light only; a shooter that is not flat, all on side 0.
+  const ClusterNode* from = sent >= 0 ? &tree.nodes[shooters[sent]] : nullptr;
+  auto add_to_patch = [&](int p, std::array<double, 2>& landed) {
     if (sent >= 0 && patch_shooter[p] == sent)
       for (int k = 0; k < 8; ++k) {
         shot[p][k] += omega * unshot[p][k];
@@ -124,29 +137,39 @@ RADIOSITY_HOT void Solver::Impl::absorb_delta(int sent, double omega, Light ligh
     const Patch& patch = mesh.patches[p];
     if (patch.area != 0) {
       for (int c = 0; c < 4; ++c) {
+        int pt = patch.point[c];
         const dvec3& rho = mesh.reflectance[4 * p + c];
         dvec3 r = reflected ? mesh.onward[4 * p + c] * rho : rho;
-        unshot[p][c * 2 + 0] += r * delta_front[patch.point[c]];
-        unshot[p][c * 2 + 1] += r * delta_back[patch.point[c]];
+        unshot[p][c * 2 + 0] += r * delta_front[pt];
+        unshot[p][c * 2 + 1] += r * delta_back[pt];
+        if (from) {
+          int side = from->flat && glm::dot(mesh.points[pt].position - from->centroid, from->vector_area) < 0;
+          landed[side] += 0.25 * patch.area * channel_sum(delta_front[pt] + delta_back[pt]);
+        }
       }
     }
-    patch_power[p] = unshot_power(unshot[p], patch.area);
+    patch_power[p] = landing_power(p);
   };
+  landed_sides = {0.0, 0.0};
   // The patches read only the delta: points and patches are one loop, with one join. A small scene's
   // loop is over sooner than a thread would wake for it.
   if (points + patches <= 16 * kParallelMinimum) {
     for (int i = 0; i < points; ++i) add_to_point(i);
-    for (int p = 0; p < patches; ++p) add_to_patch(p);
+    for (int p = 0; p < patches; ++p) add_to_patch(p, landed_sides);
     return;
   }
   constexpr int kChunk = 1024;
   int point_chunks = (points + kChunk - 1) / kChunk;
-  parallel_for(0, point_chunks + (patches + kChunk - 1) / kChunk, 1, [&](int k) {
+  int patch_chunks = (patches + kChunk - 1) / kChunk;
+  std::vector<std::array<double, 2>> landed(patch_chunks, {0.0, 0.0});  // per chunk, summed in order
+  parallel_for(0, point_chunks + patch_chunks, 1, [&](int k) {
     if (k < point_chunks)
       for (int i = k * kChunk, end = std::min(points, i + kChunk); i < end; ++i) add_to_point(i);
     else
-      for (int p = (k - point_chunks) * kChunk, end = std::min(patches, p + kChunk); p < end; ++p) add_to_patch(p);
+      for (int p = (k - point_chunks) * kChunk, end = std::min(patches, p + kChunk); p < end; ++p)
+        add_to_patch(p, landed[k - point_chunks]);
   });
+  for (const auto& part : landed) landed_sides[0] += part[0], landed_sides[1] += part[1];
 }
 
 std::vector<double> Solver::Impl::summed_power() const {
@@ -223,10 +246,70 @@ bool Solver::Impl::inject() {
   return true;
 }
 
+double Solver::Impl::landing_power(int patch) const {
+  double area = mesh.patches[patch].area;
+  return landing[patch][0] * unshot_power(unshot[patch], area, 0) +
+         landing[patch][1] * unshot_power(unshot[patch], area, 1);
+}
+
 std::vector<double> Solver::Impl::shooter_power() const {
   std::vector<double> power(shooters.size(), 0.0);
+  for (size_t p = 0; p < mesh.patches.size(); ++p) power[patch_shooter[p]] += landing_power(int(p));
+  return power;
+}
+
+// Every share is unmeasured (1) again: where light lands is measured anew by each solve's shots, on
+// the geometry as it now is.
+void Solver::Impl::take_reference() {
+  std::fill(landing.begin(), landing.end(), std::array<double, 2>{1.0, 1.0});
+  reference_power = total_unshot_power();
+  reference_landing = 1.0;
   for (size_t p = 0; p < mesh.patches.size(); ++p)
-    power[patch_shooter[p]] += unshot_power(unshot[p], mesh.patches[p].area);
+    for (int side = 0; side < 2; ++side)
+      reference_part[p][side] =
+          reference_power > 0 ? unshot_power(unshot[p], mesh.patches[p].area, side) / reference_power : 0.0;
+}
+
+// A receiver in front of a flat shooter's plane takes its front side's light only, one behind it its
+// back side's, so one shot measures both sides' shares. A shooter whose normals part (a room's edge,
+// a closed box) has no such plane: a shot measures the side that sends nearly all its light, and
+// the other keeps its share.
+double Solver::Impl::measure_landing(int s, const std::array<double, 2>& sent, const std::array<double, 2>& magnitude) {
+  const ClusterNode& n = tree.nodes[shooters[s]];
+  const std::array<double, 2>& landed = landed_sides;
+  double total = magnitude[0] + magnitude[1];
+  double signed_total = sent[0] + sent[1];
+  // Light of both signs (an update's, over-relaxation's overshoot) cancels where it lands: the ratio
+  // of two sums near nought says nothing of where it goes. A side that sends next to nothing would
+  // measure the other side's stray light.
+  auto one_sign = [&](double sum, double size) { return size > 0 && std::fabs(sum) >= kOneSign * size; };
+  std::array<double, 2> share = landing[tree.order[n.begin]];
+  for (int side = 0; side < 2; ++side) {
+    if (n.flat && magnitude[side] > kMeasuredSide * total && one_sign(sent[side], magnitude[side]))
+      share[side] = std::clamp(landed[side] / sent[side], 0.0, 1.0);
+    if (!n.flat && magnitude[side] >= kOneSign * total && one_sign(signed_total, total))
+      share[side] = std::clamp((landed[0] + landed[1]) / signed_total, 0.0, 1.0);
+  }
+  double change = 0.0;
+  for (int i = n.begin; i < n.end; ++i) {
+    int p = tree.order[i];
+    for (int side = 0; side < 2; ++side) {
+      change += (share[side] - landing[p][side]) * reference_part[p][side];
+      landing[p][side] = share[side];
+    }
+    patch_power[p] = landing_power(p);
+  }
+  // Floored: where nothing lands the scale stays defined, and the residual is nought over it.
+  double next = std::max(reference_landing + change, kLandingFloor);
+  reference_power *= next / reference_landing;
+  reference_landing = next;
+  return one_sign(signed_total, total) ? std::clamp((landed[0] + landed[1]) / signed_total, 0.0, 1.0) : 0.0;
+}
+
+std::vector<double> Solver::Impl::held_power() const {
+  std::vector<double> power(shooters.size(), 0.0);
+  for (size_t p = 0; p < mesh.patches.size(); ++p)
+    for (int side = 0; side < 2; ++side) power[patch_shooter[p]] += unshot_power(unshot[p], mesh.patches[p].area, side);
   return power;
 }
 
@@ -257,15 +340,29 @@ double Solver::Impl::relaxation(const Shooting& shooting, double residual) const
   return shooting.update && residual < kRelaxAbove * shooting.stop ? 1.0 : settings.relaxation;
 }
 
-bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega) {
+bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double& landed) {
   Shot sent = cluster_shot(shot_scene(), shooters[s], unshot, omega,
                            {settings.samples_indirect, settings.near_factor, far_samples(power[s])});
   sent.reflected = true;
+  // What it sends per side, signed as the light it carries and unsigned: absorb_delta moves it to
+  // `shot`.
+  std::array<double, 2> sending{0.0, 0.0}, magnitude{0.0, 0.0};
+  const ClusterNode& n = tree.nodes[shooters[s]];
+  for (int i = n.begin; i < n.end; ++i) {
+    int p = tree.order[i];
+    for (int c = 0; c < 4; ++c)
+      for (int side = 0; side < 2; ++side) {
+        double w = omega * 0.25 * mesh.patches[p].area;
+        sending[side] += w * channel_sum(unshot[p][2 * c + side]);
+        magnitude[side] += w * abs_sum(unshot[p][2 * c + side]);
+      }
+  }
   patch_power.resize(mesh.patches.size());
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }, true,
                   [&] { absorb_delta(s, omega, Light::reflected); }))
     return false;
+  landed = measure_landing(s, sending, magnitude);
   power = summed_power();
   ++stats.shots;
   return true;
@@ -312,9 +409,16 @@ void Solver::Impl::propagate(const ProgressCallback& progress, const Shooting& s
     // residual; spread over the scene it is a solve's own. So no shooter may hold more than the
     // threshold's worth, which a solve's stop implies.
     double most = power.empty() ? 0.0 : *std::max_element(power.begin(), power.end());
+    // Light that leaves the scene is no error, but the power balance holds it as unshot: once what
+    // lands is down to the stop, the light left, landing or not, is shot down to the same part of
+    // all that was reflected after injection (in a scene that keeps its light, nothing more).
+    std::vector<double> held;
     if (stats.residual <= shooting.stop && !(most > settings.threshold * reference_power)) {
-      stats.converged = true;
-      break;
+      held = held_power();
+      if (!(std::accumulate(held.begin(), held.end(), 0.0) > shooting.stop * reference_power / reference_landing)) {
+        stats.converged = true;
+        break;
+      }
     }
     stats.converged = false;
     // Reflectance below one lets shooting only shrink the unshot light, but for what over-relaxation
@@ -350,13 +454,18 @@ void Solver::Impl::propagate(const ProgressCallback& progress, const Shooting& s
       if (!progress(done, stats.residual)) cancel_requested = true;
     }
     if (cancel_requested) break;
-    int best = int(std::max_element(power.begin(), power.end()) - power.begin());
+    // Light that leaves gains nothing from over-relaxation, which sends ahead the light to come back.
+    const std::vector<double>& most_first = held.empty() ? power : held;
+    int best = int(std::max_element(most_first.begin(), most_first.end()) - most_first.begin());
     double shooting = power[best];
-    if (!shoot(best, power, omega)) break;
+    double landed = 1.0;
+    if (!shoot(best, power, held.empty() ? omega : 1.0, landed)) break;
     if (measuring > 0) {
-      sent += shooting;
+      // Of the light that landed: light leaving the scene says nothing of how much comes back.
+      sent += landed * shooting;
       returned += std::accumulate(power.begin(), power.end(), 0.0) - (total - shooting);
-      if (--measuring == 0) omega = stats.relaxation = relaxation_for(returned / sent);
+      if (landed >= kMeasuredLanding && --measuring == 0)
+        omega = stats.relaxation = relaxation_for(returned / sent);
     }
   }
   stats.cancelled = cancel_requested.load();
@@ -377,7 +486,7 @@ const SolveStats& Solver::Impl::solve(const ProgressCallback& progress) {
       stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       return stats;
     }
-    reference_power = total_unshot_power();
+    take_reference();
     if (reference_power == 0 && !mesh.patches.empty())
       stats.warnings.push_back("no light reaches any surface: the scene is black");
   }

@@ -68,7 +68,23 @@ struct Solver::Impl {
   void mark_hidden(int object);    // hidden_point from the object's visibility
   bool injected = false;
   double injected_power = 0.0;
-  double reference_power = 0.0;  // unshot power right after injection: the residual's scale
+  // The residual's scale: the unshot power right after injection that lands on patches when shot
+  // (each patch side's part times its `landing`), kept so as the shares are measured.
+  double reference_power = 0.0;
+  // Per patch and side (front, back): the share of the light it sends that lands on patches, as
+  // its shooter's last shot measured it (measure_landing); 1 until then. Unshot light weighs by it
+  // (landing_power): light that leaves the scene brings nothing back, and left unshot it is no error.
+  std::vector<std::array<double, 2>> landing;
+  // Per patch and side: its part of the unshot power right after injection; `reference_landing` the
+  // sum of these parts times `landing`, by which reference_power stands to that unshot power.
+  std::vector<std::array<double, 2>> reference_part;
+  double reference_landing = 1.0;
+  void take_reference();  // reference_power and its parts from the unshot light just injected
+  // Weighs shooter `s`'s patches by the share of `sent` (per side, signed; `magnitude` unsigned)
+  // that landed in the gather just absorbed, and reference_power with them. Returns the share of
+  // all it sent that landed (0 where its light is of both signs).
+  double measure_landing(int s, const std::array<double, 2>& sent, const std::array<double, 2>& magnitude);
+  double landing_power(int patch) const;  // its unshot power, each side times its landing share
   std::atomic<bool> cancel_requested{false};
   SolveStats stats;
 
@@ -120,9 +136,11 @@ struct Solver::Impl {
   enum class Light { direct, reflected };
   void apply_delta(Light light);
   // apply_delta(), after shooter `sent` (if any) moves `omega` times its unshot radiance to what it
-  // has shot. Leaves each patch's share of shooter_power() in patch_power, read in the same pass.
+  // has shot. Leaves each patch's share of shooter_power() in patch_power, and where the shooter's
+  // light landed in landed_sides, read in the same pass.
   void absorb_delta(int sent, double omega, Light light);
   std::vector<double> patch_power;
+  std::array<double, 2> landed_sides{0.0, 0.0};  // per side of the shooter (measure_landing)
   std::vector<double> summed_power() const;  // shooter_power() from patch_power
   double landed_power() const;  // of the gathered delta, radiance x area over both sides
   void apply_direct_delta();    // apply_delta() of direct light, for a change of it: the residual's scale follows
@@ -140,7 +158,8 @@ struct Solver::Impl {
                                     double scale, const std::vector<char>* only, int far_samples = INT32_MAX) const;
 
   bool inject();
-  std::vector<double> shooter_power() const;
+  std::vector<double> shooter_power() const;  // per shooter, the landing_power() of its patches
+  std::vector<double> held_power() const;     // per shooter, its patches' unshot power, landing or not
   // Their sum, in shooter order as propagate() sums it: the residual's numerator, to the last bit.
   double total_unshot_power() const;
   // Distant receivers' samples for a shot of shooter power `power`: fewer for less light.
@@ -153,8 +172,8 @@ struct Solver::Impl {
   // The omega shots send their unshot light with, when shooting starts from `residual`; 0: to be
   // measured (propagate).
   double relaxation(const Shooting& shooting, double residual) const;
-  // power: shooter_power() after the shot
-  bool shoot(int s, std::vector<double>& power, double omega);
+  // power: shooter_power() after the shot; landed: the share of what it sent that landed
+  bool shoot(int s, std::vector<double>& power, double omega, double& landed);
   void propagate(const ProgressCallback& progress, const Shooting& shooting);  // until the residual is below its stop
   std::string holders_of() const;  // the objects holding most of the unshot light
   const SolveStats& solve(const ProgressCallback& progress);

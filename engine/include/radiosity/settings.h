@@ -26,7 +26,10 @@ struct Settings {
   // A far cluster's form factor is good to fourth order in radius / distance: at 5 a furnace at rho
   // 0.9 comes out within 0.05%, for 2% more rays than at 3.
   double near_factor = 5.0;
-  double threshold = 1e-3;   // stop when unshot power / injected power falls below this
+  // Stop when the unshot light still to land on surfaces, over the light reflected in the direct pass
+  // that lands (Solver::Impl::measure_landing: light leaving the scene brings nothing back), falls
+  // below this, and the unshot light, landing or not, below this part of all that was reflected.
+  double threshold = 1e-3;
   // An update stops once what it leaves unshot is below this part of the light its change put to
   // shoot, or below `threshold` if that is more: a frame is judged by its distance from a fresh
   // solve, and the light a change moves near itself is what shapes that distance. What it leaves is
