@@ -257,7 +257,7 @@ void Solver::Impl::add_direct_power(double change) {
 void Solver::Impl::apply_direct_delta() {
   add_direct_power(landed_power());
   apply_delta(Light::direct);
-  if (reference_power == 0) reference_power = total_unshot_power();  // the first light: as a solve starts
+  if (reference_power == 0) take_reference();  // the first light: as a solve starts
 }
 
 void Solver::Impl::gather_direct_change(const std::vector<Source>& sources) {
