@@ -143,7 +143,7 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   bool transmits = optics || vis->transmits();
   if (!injected) {  // nothing gathered yet: the first solve will see the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
-    for (const auto& [i, m] : changes.materials) scene.materials[i] = m;
+    for (const auto& [i, m] : changes.materials) take_material(i, m);
     if (optics) take_optics();
     for (const auto& [i, l] : changes.lamps) scene.lamps[i] = l;
     if (changes.world) scene.world = *changes.world;
@@ -331,9 +331,22 @@ void Solver::Impl::change_lamp(int index, const Lamp& lamp) {
   scene.lamps[index] = lamp;
 }
 
+void Solver::Impl::take_material(int index, const Material& m) {
+  scene.materials[index] = m;
+  for (size_t p = 0; p < mesh.patches.size(); ++p) {
+    const Patch& patch = mesh.patches[p];
+    if (patch.material != index) continue;
+    // A textured object's reflectance (emission) is its own, per corner.
+    if (scene.meshes[patch.object].corner_reflectance.empty())
+      std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
+    if (scene.meshes[patch.object].corner_emission.empty())
+      std::fill_n(mesh.emission.begin() + 4 * p, 4, m.emission);
+  }
+}
+
 void Solver::Impl::change_material(int index, const Material& m) {
   Material old = scene.materials[index];
-  scene.materials[index] = m;
+  take_material(index, m);
   // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did (of
   // their points' reflected light, `onward` times it). A textured object's reflectance (emission)
   // is its own.
@@ -347,8 +360,6 @@ void Solver::Impl::change_material(int index, const Material& m) {
     // Whether the patch takes the material's reflectance (emission), or has its own per corner.
     bool material_rho = scene.meshes[patch.object].corner_reflectance.empty();
     bool material_emission = scene.meshes[patch.object].corner_emission.empty();
-    if (material_rho) std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
-    if (material_emission) std::fill_n(mesh.emission.begin() + 4 * p, 4, m.emission);
     // A hidden object emits nothing, and gathers nothing to reflect.
     if (patch.area == 0 || !scene.meshes[patch.object].visible) continue;
     if (material_emission) emitted[p].fill(emission);

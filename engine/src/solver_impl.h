@@ -187,6 +187,7 @@ struct Solver::Impl {
   void change_lamp(int index, const Lamp& lamp);
   bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
   void change_material(int index, const Material& material);
+  void take_material(int index, const Material& material);  // the scene's and its patches', no light
   // After a material's lobes other than reflectance and emission change: every object's
   // Transmission (PatchMesh) and the panes Visibility traces.
   void take_optics();

@@ -152,6 +152,20 @@ def cube_scene(state, patch_size, smooth=False):
     return more
 
 
+def test_changes_made_before_the_first_solve_are_the_solves_own():
+    """Nothing is lit yet, so the solve sees the changed scene as if it had been built so: the same
+    bits as a solve of that scene."""
+    s = settings("draft")
+    changed = dict(ROOM_STATE, cube_rho=(0.9, 0.2, 0.1), lamp_emission=9.0)
+    scene, ids, _ = changing_room(ROOM_STATE)
+    solver = engine.Solver(scene, s)
+    solver.set_material(CUBE_MATERIAL, changed["cube_rho"])
+    solver.set_material(LAMP_MATERIAL, LAMP_RHO, (changed["lamp_emission"],) * 3)
+    solver.update()
+    solver.solve()
+    assert np.array_equal(values(solver, ids), fresh(changed, s, 0.0))
+
+
 @pytest.mark.parametrize("preset, threshold, bound", [("default", None, 0.01), ("draft", 1e-4, 3e-4)])
 def test_an_added_object_matches_a_fresh_solve(preset, threshold, bound):
     s = settings(preset, threshold)
