@@ -88,17 +88,22 @@ FAST = {("cornell_box", None, "DEFAULT"), ("subsurf_room", None, "DEFAULT")}
 TARGET = {"DEFAULT": 0.02, "HIGH": 0.01}
 
 
-def scene_corners(scene, ref, traced):
-    """The scene's non-emitting corners: object names, world positions, our values, the reference
-    values by kind ("traced" and "limit" too where `traced` holds every object: reference.py), and
-    whether each lies on a junction (reference.junction_faces)."""
-    names, pos, nrm, vals, refs = [], [], [], [], {kind: [] for kind in REFERENCES}
+def scene_corners(scene, ref, traced=None, skip=()):
+    """The scene's non-emitting corners but those of the objects named in `skip` (whose faces still
+    make junctions): object names, world positions, our values, the reference values by kind (the
+    inset kind where `ref` has it; "traced" and "limit" too where `traced` holds every object:
+    reference.py), and whether each lies on a junction (reference.junction_faces)."""
+    kinds = {kind: inset for kind, inset in REFERENCES.items()
+             if not inset or any(key.endswith(":corner_inset") for key in ref)}
+    names, pos, nrm, vals, refs = [], [], [], [], {kind: [] for kind in kinds}
     faces, traced_refs = [], []
     for ob in scene.objects:
         if ob.type != 'MESH' or ob.hide_render:
             continue
         co, normals, f = make_references.world_faces(ob)
         faces += f
+        if ob.name in skip:
+            continue
         v = colours(ob)[:, :3]
         keep = ~make_references.emitting_corners(ob)
         if not keep.any():
@@ -107,7 +112,7 @@ def scene_corners(scene, ref, traced):
         pos.append(co[keep])
         nrm.append(normals[keep])
         vals.append(v[keep])
-        for kind, inset in REFERENCES.items():
+        for kind, inset in kinds.items():
             refs[kind].append(reference.corner_reference(ref, ob.name, inset)[keep])
         t = reference.traced_reference(traced, ob.name)
         traced_refs.append(None if t is None else t[keep])
@@ -173,8 +178,7 @@ _optics_bakes = {}
 
 
 def optics_corners(reference_name, optic, black):
-    """{"ours", "cycles" (Cycles' corners), "inset" (Cycles a little inside the faces, where the
-    reference has it, else None), "junction" (which corners lie on another surface)} at the
+    """scene_corners' (our values, the reference values by kind, which lie on a junction) at the
     non-emitting corners of every mesh but `optic`, after a default bake of the sample
     VARIANTS[reference_name] names (its optic made black where `black`). Baked once a session: the
     agreement and share tests share the sample's bake."""
@@ -187,25 +191,8 @@ def optics_corners(reference_name, optic, black):
         scene.radiosity.preset = 'DEFAULT'
         assert bpy.ops.radiosity.bake() == {'FINISHED'}
         ref = reference.read_npz(optics_references.path_of(reference_name))
-        rows = {"ours": [], "cycles": [], "inset": [], "positions": [], "normals": []}
-        faces = []
-        for ob in sorted(scene.objects, key=lambda o: o.name):
-            if ob.type != 'MESH' or ob.hide_render:
-                continue
-            co, normals, f = make_references.world_faces(ob)
-            faces += f
-            if ob.name == optic:
-                continue
-            keep = ~make_references.emitting_corners(ob)
-            rows["ours"].append(colours(ob)[keep, :3])
-            rows["cycles"].append(reference.corner_reference(ref, ob.name)[keep])
-            if ob.name + ":corner_inset" in ref:
-                rows["inset"].append(reference.corner_reference(ref, ob.name, inset=True)[keep])
-            rows["positions"].append(co[keep])
-            rows["normals"].append(normals[keep])
-        out = {k: np.concatenate(v) if v else None for k, v in rows.items()}
-        out["junction"] = reference.junction_faces(out.pop("positions"), out.pop("normals"), faces).any(1)
-        _optics_bakes[reference_name] = out
+        _names, _pos, ours, refs, junction = scene_corners(scene, ref, skip=(optic,))
+        _optics_bakes[reference_name] = ours, refs, junction
     return _optics_bakes[reference_name]
 
 
@@ -219,21 +206,21 @@ WINDOW_CORNERS = pytest.mark.xfail(strict=True, reason="the window room's corner
 def test_optics_samples_agree_with_cycles(addon, sample, variant, optic):
     """Corners off junctions against Cycles' own, those on one against Cycles a little inside their
     face (DESIGN.md: Cycles' vertex bake is ill-posed there)."""
-    c = optics_corners(sample, optic, False)
-    ours, junction = c["ours"], c["junction"]
-    limit = reference.limit_reference(c["cycles"], c["inset"], junction)
+    ours, refs, junction = optics_corners(sample, optic, False)
+    limit = reference.limit_reference(refs["junction"], refs["inset"], junction)
     err = reference.relative_rms(ours, limit)
     print(f"\n{sample} default: corner relative RMS {100 * err:.2f}% over {len(ours)} corners "
-          f"({100 * reference.relative_rms(ours, c['cycles'], ~junction):.2f}% off junctions, "
-          f"{100 * reference.relative_rms(ours, c['inset'], junction):.2f}% on them against Cycles inside the face, "
-          f"{100 * reference.relative_rms(ours, c['cycles'], junction):.2f}% against Cycles' corners)", end="")
+          f"({100 * reference.relative_rms(ours, refs['junction'], ~junction):.2f}% off junctions, "
+          f"{100 * reference.relative_rms(ours, refs['inset'], junction):.2f}% on them against Cycles inside the face, "
+          f"{100 * reference.relative_rms(ours, refs['junction'], junction):.2f}% against Cycles' corners)", end="")
     assert err <= TARGET["DEFAULT"]
 
 
 @pytest.mark.parametrize("sample, variant, optic", OPTICS)
 def test_the_light_a_pane_or_mirror_carries_is_cycles_share(addon, sample, variant, optic):
-    ours, theirs = (optics_corners(sample, optic, False)[k] for k in ("ours", "cycles"))
-    ours_black, theirs_black = (optics_corners(variant, optic, True)[k] for k in ("ours", "cycles"))
+    ours, refs, _ = optics_corners(sample, optic, False)
+    ours_black, refs_black, _ = optics_corners(variant, optic, True)
+    theirs, theirs_black = refs["junction"], refs_black["junction"]
     ours_change, cycles_change = ours - ours_black, theirs - theirs_black
     err = reference.relative_rms(ours_change, cycles_change)
     print(f"\n{sample}: {optic} carries {100 * cycles_change.mean() / theirs.mean():.1f}% of the light at the "
