@@ -260,20 +260,20 @@ def _factor(node, name, warnings, images):
     """(value, varies) of a number input: an image's alpha or a colour's luminance linked into it
     taken as its mean over the image (varies: True), else its unlinked value."""
     socket = node.inputs[name]
-    value = colour_texture._input_number(node, socket, warnings, 0)
+    value = colour_texture.input_number(node, socket, warnings, 0)
     if isinstance(value, float):
         return value, False
     return float(colour_texture.mean_of(value, images)), True
 
 
 def _first(node, names):
-    """The first of an input's names (Blender 3.x's, then 4.x's) the node has."""
-    return next(n for n in names if node.inputs.get(n) is not None)
+    """The first of an input's names (Blender 3.x's, then 4.x's) the node has, or None."""
+    return next((n for n in names if node.inputs.get(n) is not None), None)
 
 
 def _number(node, names, warnings, default=0.0):
-    present = [n for n in names if node.inputs.get(n) is not None]
-    return float(_input_value(node, present[0], warnings)) if present else default
+    name = _first(node, names)
+    return default if name is None else float(_input_value(node, name, warnings))
 
 
 def _principled(node, warnings, textures, emissions, images):

@@ -20,7 +20,7 @@ from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
 
 __all__ = ["TextureRef", "AttributeRef", "MixRef", "AdjustRef", "RampRef", "GrayRef", "Images", "colour_source",
            "image_texture", "corner_colours", "attribute_colours", "blended", "adjusted", "ramped", "gray", "leaves",
-           "varies", "mean_of", "mean_colour", "mapping_of", "encoded_srgb", "srgb_to_linear"]
+           "varies", "mean_of", "mean_colour", "mapping_of", "encoded_srgb", "srgb_to_linear", "input_number"]
 
 
 @dataclass
@@ -152,7 +152,7 @@ def colour_mix(socket, warnings, depth=0):
     if node.blend_type not in BLENDS:
         warnings.append(f"{node.name}: a {node.blend_type.title()} mix is not followed; its first colour is used")
         return None
-    return MixRef(node.blend_type, _input_number(node, fac, warnings, depth), _input_colour(node, a, warnings, depth),
+    return MixRef(node.blend_type, input_number(node, fac, warnings, depth), _input_colour(node, a, warnings, depth),
                   _input_colour(node, b, warnings, depth), clamp, np.ones(3), node.type == 'MIX_RGB' or node.clamp_factor)
 
 
@@ -166,11 +166,11 @@ def colour_ramp(socket, warnings, depth=0):
         return None
     ramp = node.color_ramp
     table = np.array([ramp.evaluate(i / (RAMP_TABLE_SIZE - 1))[:3] for i in range(RAMP_TABLE_SIZE)], np.float64)
-    return RampRef(table, ramp.interpolation != 'CONSTANT', _input_number(node, node.inputs["Fac"], warnings, depth),
+    return RampRef(table, ramp.interpolation != 'CONSTANT', input_number(node, node.inputs["Fac"], warnings, depth),
                    np.ones(3))
 
 
-def _input_number(node, socket, warnings, depth):
+def input_number(node, socket, warnings, depth):
     """What a node's number input holds: the luminance of a colour source linked into it (GrayRef),
     or its unlinked value."""
     if not socket.is_linked:
