@@ -10,17 +10,22 @@ constexpr int kNone = -1, kSeveral = -2;  // which moved objects' zones a ray pa
 
 unsigned ChangedRays::keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, unsigned count,
                                   const Coincident* coincident, long long& traced) const {
-  // Whether some moved object blocks each ray, before and after. A ray an object's sphere of one
+  // What the moved objects pass of each ray, before and after: 0 where one blocks it, else what
+  // the panes it crosses of theirs let through (1 without panes). A ray an object's sphere of one
   // place does not reach, the object there cannot block: each ray is traced against the places it
   // passes near, and no more once one of them blocks it there.
-  bool blocked[2][kMaxRays] = {};
+  thread_local Crossings crossings(kMaxRays);
+  Crossings* through_panes = panes_ ? &crossings : nullptr;
+  dvec3 passed[2][kMaxRays];
   int through[kMaxRays];
   dvec3 origin[kMaxRays], dir[kMaxRays];
   for (unsigned i = 0; i < count; ++i) {
     const RTCRay& r = rays[i];
     through[i] = kNone;
+    passed[0][i] = passed[1][i] = dvec3(1.0);
     origin[i] = dvec3(r.org_x, r.org_y, r.org_z), dir[i] = dvec3(r.dir_x, r.dir_y, r.dir_z);
   }
+  double eps = vis_.epsilon();
   for (int m = 0; m < int(objects_.size()); ++m) {
     const Zone& zone = zones_[m];
     RTCRay near[2][kMaxRays];
@@ -30,28 +35,39 @@ unsigned ChangedRays::keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, u
       for (int place = 0; place < 2; ++place) {
         if (!ray_crosses(origin[i], dir[i], rays[i].tfar, place == 0 ? zone.before : zone.after)) continue;
         through[i] = through[i] == kNone || through[i] == m ? m : kSeveral;
-        if (!blocked[place][i]) near[place][crossing[place]] = rays[i], which[place][crossing[place]++] = i;
+        if (passed[place][i] != dvec3(0.0)) near[place][crossing[place]] = rays[i], which[place][crossing[place]++] = i;
       }
     }
     for (int place = 0; place < 2; ++place) {
-      vis_.occluded_by(objects_[m], place == 0, near[place], crossing[place], coincident);
-      for (unsigned k = 0; k < crossing[place]; ++k) blocked[place][which[place][k]] = near[place][k].tfar < 0;
+      vis_.occluded_by(objects_[m], place == 0, near[place], crossing[place], coincident, through_panes);
+      for (unsigned k = 0; k < crossing[place]; ++k) {
+        dvec3& p = passed[place][which[place][k]];
+        if (near[place][k].tfar < 0)
+          p = dvec3(0.0);
+        else if (through_panes)
+          p *= crossings.through(near[place][k], eps);
+      }
       traced += crossing[place];
     }
   }
   unsigned kept = 0;
   for (unsigned i = 0; i < count; ++i) {
-    if (blocked[0][i] == blocked[1][i]) continue;
-    double sign = blocked[0][i] ? 1.0 : -1.0;
+    if (passed[0][i] == passed[1][i]) continue;
     rays[kept] = rays[i];
     into[kept] = into[i];
-    carried[kept] = sign * carried[i];
+    carried[kept] = (passed[1][i] - passed[0][i]) * carried[i];
     through[kept] = through[i];
     ++kept;
   }
   // What else blocks a changed ray: the scene without the moved objects it passes near (those it
   // passes far from block it neither way). Near one, the dB cache of that one knows; near several,
-  // it is traced without all of them.
+  // it is traced without all of them. Through panes, it is traced without all of them, each time.
+  if (through_panes) {
+    traced += db_.trace_without(vis_, objects_, rays, kept, coincident, through_panes);
+    for (unsigned i = 0; i < kept; ++i)
+      if (rays[i].tfar >= 0) carried[i] *= crossings.through(rays[i], eps);
+    return kept;
+  }
   for (int m = kSeveral; m < int(objects_.size()); ++m) {
     if (m == kNone) continue;
     RTCRay asked[kMaxRays];

@@ -255,8 +255,8 @@ unsigned DbCache::trace_without(const Visibility& vis, int object, RTCRay* rays,
 }
 
 unsigned DbCache::trace_without(const Visibility& vis, const std::vector<int>& objects, RTCRay* rays,
-                                unsigned count, const Coincident* coincident) {
-  vis.occluded_without(objects, rays, count, coincident);
+                                unsigned count, const Coincident* coincident, Crossings* crossings) {
+  vis.occluded_without(objects, rays, count, coincident, crossings);
   std::lock_guard<std::mutex> lock(mutex_);
   counts_.misses += count;
   return count;

@@ -45,6 +45,7 @@
 
 namespace radiosity {
 
+class Crossings;
 class Visibility;
 struct Coincident;
 
@@ -77,9 +78,10 @@ class DbCache {
   // is traced and staged. Returns the rays it traced. From any thread of a gather.
   unsigned trace_without(const Visibility& vis, int object, RTCRay* rays, unsigned count,
                          const Coincident* coincident);
-  // The same without several objects at once: traced, counted as misses, not kept.
+  // The same without several objects at once, or on through panes (recorded in `crossings`): traced,
+  // counted as misses, not kept.
   unsigned trace_without(const Visibility& vis, const std::vector<int>& objects, RTCRay* rays, unsigned count,
-                         const Coincident* coincident);
+                         const Coincident* coincident, Crossings* crossings = nullptr);
 
   struct Counts {
     long long hits = 0, misses = 0;

@@ -112,6 +112,15 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   for (const auto& [i, m] : changes.materials) validate_material(m, i);
   for (const auto& [i, l] : changes.lamps) validate_lamp(l, i);
   if (changes.world) validate_world(*changes.world);
+  // A material whose panes pass more or less light changes what rays get through: each object with
+  // a patch of it moves where it stands, its panes' light changing as a moved object's shadow does.
+  bool optics = false;
+  for (const auto& [i, m] : changes.materials) {
+    if (!optics_differ(scene.materials[i], m)) continue;
+    optics = true;
+    for (const Patch& patch : mesh.patches)
+      if (patch.material == i) changes.meshes.emplace(patch.object, scene.meshes[patch.object]);
+  }
   std::map<int, PlacedObject> placed;
   for (const auto& [o, m] : changes.meshes) {
     const MeshDesc& was = scene.meshes[o];
@@ -136,11 +145,6 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
 
   stats.shoot_residual = stats.shoot_seconds = 0.0;
   stats.restart.clear();
-  // Light through panes travels along the rays that carry it, which an update's changed rays do not
-  // follow: a scene that lets light through, before or after the change, is solved afresh.
-  bool optics = std::any_of(changes.materials.begin(), changes.materials.end(),
-                            [&](const auto& c) { return optics_differ(scene.materials[c.first], c.second); });
-  bool transmits = optics || vis->transmits();
   if (!injected) {  // nothing gathered yet: the first solve will see the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
     for (const auto& [i, m] : changes.materials) take_material(i, m);
@@ -168,12 +172,9 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   for (const auto& [i, m] : changes.materials) change_material(i, m);
   zones = change_objects(changes.meshes, placed);
   keep_near_direct(objects, zones);
-  if (optics) take_optics();
   if (light > 0 && !(injected_power > kRestartBelow * light))
     stats.restart = "the change left " + std::to_string(int(std::round(100 * injected_power / light))) +
                     "% of the light (under " + std::to_string(int(100 * kRestartBelow)) + "%)";
-  else if (transmits)
-    stats.restart = "transmission: updates in scenes with glass are full solves";
   if (!stats.restart.empty()) {
     restart();
     touched.assign(mesh.points.size(), 1);
@@ -382,6 +383,7 @@ void Solver::Impl::place(int object, const MeshDesc& m, const PlacedObject& plac
     db_cache.moved(object, zone_of(mesh, object, placed, 2 * vis->epsilon()));
   scene.meshes[object] = m;
   place_object(mesh, object, m, placed);
+  radiosity::take_optics(mesh, object, scene.materials);  // the panes it takes there
   tree.rebuild(mesh, object);  // as a fresh solve would cluster it there: a refit is off on a curved one
   cut_shooters();
   vis->move_object(object, mesh, m.visible);

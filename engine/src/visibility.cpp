@@ -265,13 +265,16 @@ int Visibility::object_of_patch(int patch) const {
 }
 
 void Visibility::occluded_by(int object, bool before_move, RTCRay* rays, unsigned count,
-                             const Coincident* coincident) const {
+                             const Coincident* coincident, Crossings* crossings) const {
   const Object& o = objects_.at(object);
   int state = before_move ? 1 - o.now : o.now;
   RTCScene scene = o.own[state];
-  if (!scene || !o.visible[state]) return;
+  if (!scene || !o.visible[state]) {  // nothing blocked, nothing crossed
+    if (crossings) crossings->clear(rays, count);
+    return;
+  }
   FilterContext ctx;
-  ctx.vis = this, ctx.only_object = object, ctx.coincident = coincident;
+  ctx.vis = this, ctx.only_object = object, ctx.coincident = coincident, ctx.crossings = crossings;
   trace(scene, ctx, rays, count);
 }
 

@@ -91,9 +91,14 @@ class Visibility {
   // The mesh's next object, hidden (as an instance, to appear with move_object).
   void add_object(const PatchMesh& mesh);
   // Rays against one moved object alone, as it is now or as it was before its last move (a hidden
-  // object blocks nothing).
+  // object blocks nothing); with `crossings`, on through its panes as `occluded` goes.
   void occluded_by(int object, bool before_move, RTCRay* rays, unsigned count,
-                   const Coincident* coincident = nullptr) const;
+                   const Coincident* coincident = nullptr, Crossings* crossings = nullptr) const;
+  // Some patch of the object let light through as it was before its last move (or as it is).
+  bool has_panes(int object, bool before_move) const {
+    const Object& o = objects_.at(object);
+    return o.panes[before_move ? 1 - o.now : o.now] != nullptr;
+  }
   // Rays against the whole scene except one moved object, or several.
   void occluded_without(int object, RTCRay* rays, unsigned count, const Coincident* coincident = nullptr,
                         Crossings* crossings = nullptr) const;
