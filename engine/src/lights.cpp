@@ -14,8 +14,8 @@ constexpr double kPi = 3.14159265358979323846;
 // solve stays deterministic, and over the receivers each sample falls anywhere in its cell with equal
 // chance, so what they gather is right on average. A pattern fixed in its cells (only turned about
 // the centre) puts every receiver's samples at the same few distances from the centre: for the sky
-// the same few elevations, which see a window by the elevations it spans (a room's floor under a
-// window gathered 16% too much of its sky at 64 samples), and shadows band where they should be noise.
+// the same few elevations, which weigh a window by the rings of samples it meets rather than by its
+// size (a floor under a window reads its sky high), and shadows band where they should be noise.
 struct Offset {
   double u, v;
 };

@@ -116,7 +116,7 @@ def test_sky_through_a_window_is_radiance_times_the_windows_form_factor():
     # A closed room of black walls but a 1.6 x 1.2 m hole in its +y wall: its floor sees the sky
     # through the hole only, so each floor corner holds rho * L * F, F its form factor to the hole.
     # A sky sampled in directions fixed but for a turn about the normal sees the hole at the same few
-    # elevations from every point, which read it 16% high on average.
+    # elevations from every point, which read it 17% high on average here.
     scene = engine.Scene()
     grey, black = scene.add_material((RHO, RHO, RHO)), scene.add_material((0.0, 0.0, 0.0))
     x, y, z = 2.5, 2.0, 2.7
