@@ -10,29 +10,40 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A fixed per-receiver rotation of the sample pattern: shadows get fine noise instead of banding,
-// and a solve stays deterministic.
-double receiver_rotation(int receiver) {
-  uint32_t h = uint32_t(receiver) * 2654435761u;
-  h ^= h >> 16;
-  h *= 0x45d9f3bu;
-  h ^= h >> 16;
-  return (h & 0xFFFFFF) / double(0x1000000) * 2.0 * kPi;
+// A fixed per-receiver offset of the sample pattern within its cells, two numbers in [0, 1): a
+// solve stays deterministic, and over the receivers each sample falls anywhere in its cell with equal
+// chance, so what they gather is right on average. A pattern fixed in its cells (only turned about
+// the centre) puts every receiver's samples at the same few distances from the centre: for the sky
+// the same few elevations, which weigh a window by the rings of samples it meets rather than by its
+// size (a floor under a window reads its sky high), and shadows band where they should be noise.
+struct Offset {
+  double u, v;
+};
+
+Offset receiver_offset(int receiver) {
+  auto mix = [](uint32_t h) {
+    h ^= h >> 16;
+    h *= 0x45d9f3bu;
+    h ^= h >> 16;
+    return h;
+  };
+  uint32_t h = mix(uint32_t(receiver) * 2654435761u);
+  uint32_t g = mix(h * 0x9e3779b9u + 0x7f4a7c15u);
+  return {(h & 0xFFFFFF) / double(0x1000000), (g & 0xFFFFFF) / double(0x1000000)};
 }
 
-// Stratified points on the unit disc (Shirley's concentric map of a k x k grid).
+// Stratified points on the unit disc: Shirley's concentric map of a k x k grid, one point a cell at
+// `offset` within it. The map keeps area, so the cells are equal parts of the disc.
 template <class F>
-void disc_samples(int samples, double rotation, F&& use) {
+void disc_samples(int samples, Offset offset, F&& use) {
   int k = std::max(1, int(std::ceil(std::sqrt(double(samples)))));
-  double cr = std::cos(rotation), sr = std::sin(rotation);
   for (int j = 0; j < k; ++j)
     for (int i = 0; i < k; ++i) {
-      double a = 2.0 * (i + 0.5) / k - 1.0, b = 2.0 * (j + 0.5) / k - 1.0;
-      double r, phi;
+      double a = 2.0 * (i + offset.u) / k - 1.0, b = 2.0 * (j + offset.v) / k - 1.0;
+      double r = 0.0, phi = 0.0;
       if (std::fabs(a) > std::fabs(b)) r = a, phi = kPi / 4 * (b / a);
-      else r = b, phi = kPi / 2 - kPi / 4 * (a / b);
-      double x = r * std::cos(phi), y = r * std::sin(phi);
-      use(cr * x - sr * y, sr * x + cr * y, 1.0 / (k * k));
+      else if (b != 0) r = b, phi = kPi / 2 - kPi / 4 * (a / b);
+      use(r * std::cos(phi), r * std::sin(phi), 1.0 / (k * k));
     }
 }
 
@@ -75,7 +86,7 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
     dvec3 t, b;
     orthonormal_basis(to_sun, t, b);
     double spread = std::tan(0.5 * lamp.angle);
-    disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
+    disc_samples(samples, receiver_offset(receiver), [&](double u, double v, double w) {
       dvec3 dir = to_sun + spread * (u * t + v * b);
       batch.to_infinity(receiver, x, n, dir, front, w * h);
     });
@@ -103,11 +114,17 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
   }
   dvec3 t, b;
   orthonormal_basis(to_lamp, t, b);
-  disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
+  disc_samples(samples, receiver_offset(receiver), [&](double u, double v, double w) {
     dvec3 y = lamp.position + lamp.radius * (u * t + v * b);
     batch.to_point({receiver, x, n}, {y, no_normal}, front, w * h);
   });
 }
+
+// The sky fills the hemisphere where a lamp is a small disc, and seen through a window it is a small
+// source at a place not known beforehand: a lamp's count of rays finds it a few times at most, and a
+// room's corners far from its window read tens of percent either way. So it takes this many times a
+// lamp's rays; those to an open sky end at once, and an unoccluded point's sum is exact at any count.
+constexpr int kSkyRaysPerLampRay = 16;
 
 void gather_world(const WorldMap& sky, int samples, int receiver, const ReceiverPoint& point,
                   OcclusionBatch& batch) {
@@ -118,7 +135,7 @@ void gather_world(const WorldMap& sky, int samples, int receiver, const Receiver
   for (int side = 0; side < 2; ++side) {
     if (side == point.enclosed_side) continue;  // a closed object's inside sees no sky
     dvec3 n = side == 0 ? point.normal : -point.normal;
-    disc_samples(samples, receiver_rotation(receiver), [&](double u, double v, double w) {
+    disc_samples(samples * kSkyRaysPerLampRay, receiver_offset(receiver), [&](double u, double v, double w) {
       dvec3 dir = u * t + v * b + std::sqrt(std::max(0.0, 1.0 - u * u - v * v)) * n;
       batch.to_infinity(receiver, point.position, point.normal, dir, side == 0, w * sky.at(dir));
     });

@@ -196,13 +196,7 @@ def optics_corners(reference_name, optic, black):
     return _optics_bakes[reference_name]
 
 
-# The room's inside is converged (a tenth of the threshold moves its corners by 0.02%): what is left,
-# 2.6% off junctions and 3.4% on them against Cycles inside the face, is not the stop's.
-WINDOW_CORNERS = pytest.mark.xfail(strict=True, reason="the window room's corners are 3.2% from Cycles' with its "
-                                   "inside converged")
-
-
-@pytest.mark.parametrize("sample, variant, optic", [pytest.param(*OPTICS[0], marks=WINDOW_CORNERS), OPTICS[1]])
+@pytest.mark.parametrize("sample, variant, optic", OPTICS)
 def test_optics_samples_agree_with_cycles(addon, sample, variant, optic):
     """Corners off junctions against Cycles' own, those on one against Cycles a little inside their
     face (DESIGN.md: Cycles' vertex bake is ill-posed there)."""

@@ -101,6 +101,50 @@ def test_a_world_map_lights_by_direction():
         engine.Solver(scene, engine.Settings.preset("draft"))
 
 
+def polygon_form_factor(points, normal, polygon):
+    """Lambert's closed form: the form factors from points (N,3) facing `normal` to a polygon (corners
+    (K,3)) wholly in front of them."""
+    r = polygon[None] - points[:, None]
+    r /= np.linalg.norm(r, axis=2, keepdims=True)
+    after = np.roll(r, -1, axis=1)
+    edges = np.cross(r, after)
+    angles = np.arccos(np.clip((r * after).sum(2), -1.0, 1.0))
+    return np.abs((angles * (edges @ normal) / np.linalg.norm(edges, axis=2)).sum(1)) / (2 * math.pi)
+
+
+def test_sky_through_a_window_is_radiance_times_the_windows_form_factor():
+    # A closed room of black walls but a 1.6 x 1.2 m hole in its +y wall: its floor sees the sky
+    # through the hole only, so each floor corner holds rho * L * F, F its form factor to the hole.
+    # A sky sampled in directions fixed but for a turn about the normal sees the hole at the same few
+    # elevations from every point, which read it 17% high on average here.
+    scene = engine.Scene()
+    grey, black = scene.add_material((RHO, RHO, RHO)), scene.add_material((0.0, 0.0, 0.0))
+    x, y, z = 2.5, 2.0, 2.7
+    floor, walls = Mesh(), Mesh()
+    floor.add_face([(-x, -y, 0), (x, -y, 0), (x, y, 0), (-x, y, 0)], grey)
+    for quad in [[(-x, -y, z), (-x, y, z), (x, y, z), (x, -y, z)], [(-x, -y, 0), (x, -y, 0), (x, -y, z), (-x, -y, z)],
+                 [(-x, -y, 0), (-x, -y, z), (-x, y, z), (-x, y, 0)], [(x, -y, 0), (x, y, 0), (x, y, z), (x, -y, z)]]:
+        walls.add_face(quad, black)              # the ceiling, the -y, -x and +x walls, facing in
+    (x0, x1), (z0, z1) = (-0.8, 0.8), (0.8, 2.0)
+    xs, zs = (-x, x0, x1, x), (0.0, z0, z1, z)
+    for j in range(3):
+        for i in range(3):
+            if (i, j) != (1, 1):                 # the +y wall round its hole
+                walls.add_face([(xs[i], y, zs[j]), (xs[i + 1], y, zs[j]), (xs[i + 1], y, zs[j + 1]),
+                                (xs[i], y, zs[j + 1])], black)
+    obj = floor.add_to(scene, refine="bilinear", patch_size=0.1)
+    walls.add_to(scene)
+    scene.set_world((1.0, 1.0, 1.0))
+    solver = engine.Solver(scene, engine.Settings.preset("default"))
+    solver.solve()
+    positions, radiance = solver.refined(obj)
+    hole = np.array([(x0, y, z0), (x1, y, z0), (x1, y, z1), (x0, y, z1)])
+    expected = RHO * polygon_form_factor(positions, np.array([0.0, 0.0, 1.0]), hole)
+    assert radiance[:, 0].mean() == pytest.approx(expected.mean(), rel=0.02)
+    # and each corner near its own: a lamp's few rays find the hole a few times at most
+    assert np.sqrt(((radiance[:, 0] - expected) ** 2).mean()) < 0.15 * expected.mean()
+
+
 def test_spot_lamp_cone():
     solver, obj = solve_floor(lambda s: s.add_spot_light((0, 0, 2), (0, 0, -1), (8, 8, 8), spot_size=math.radians(60),
                                                          spot_blend=0.0))

@@ -185,15 +185,16 @@ def opaque_scene():
 
 # Invariant: opaque scenes are untouched. Rays and every patch corner's radiance (float32, SHA-256)
 # of opaque_scene() on one thread, recorded from an engine that differs from the one before it traced
-# light through panes (commit e9f484e) only in the solve's stop (Solver::Impl::measure_landing): a
-# scene where nothing lets light through is traced and summed as it was.
+# light through panes (commit e9f484e) only in the solve's stop (Solver::Impl::measure_landing) and in
+# the sampling of lamps' discs and the sky (lights.cpp: the pattern's offset in its cells, the sky's
+# rays): a scene where nothing lets light through is traced and summed as it was.
 OPAQUE_RECORD = {
-    "draft": (52711, ["0e1e321dcc4a2a3f3c14be130f5231fccbb243f5f9b981c2826bb7bc2af985ea",
-                      "02690f3095a096edfff19b40748515bcf78d3f544c20a8f49ca33bc2bf042443",
-                      "4d19e23a876bd522ca9e89f1d75eaa1d5315b4ea8b855a53e2545b0febbf9d94"]),
-    "default": (224601, ["6f4528d7896488bf803e04057f3c29969707c14b6f84a0896607d8a34ecd12e2",
-                         "74c1e14d171f53098a633737f3677d6f09ea2c4584af4163800b1d85810be98c",
-                         "c315940935b191cb1e7c455cda6f5e1041590413e0768a7cfbf0c2f09e8e2e72"]),
+    "draft": (156391, ["565d73a03ddae485cb4356689d43635f5b14155a245cd3c8851c23d10f9c9818",
+                       "4479b4c1972bf821cb301bb672fee3492b6888fa7ac3e1f354e38c618062e269",
+                       "2a3fbed66793a30422feb30c6cfd658998a09d28b185bd613767663a7cd71a0f"]),
+    "default": (639321, ["aef18b390db100240a5ed505f24f154e01b6adb1cc88cab14befdbd1a30bb782",
+                         "b05f467bece1e5919f0f0d0a614f56b4694fa859206fc5387605a448fdde5ccd",
+                         "970d731962e90eb2251311624644614a4b9f5270d8f930a7908733beb2b173f7"]),
 }
 
 
