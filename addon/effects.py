@@ -125,7 +125,37 @@ def items(sx):
     return out
 
 
+def _transmission_cost(stats):
+    """What light through panes cost the solve, as its stats count it: hits on panes that rays went
+    on through, and the share of its rays that crossed one. The seconds are not separable from the
+    rest of the tracing (bench/effects_cost.py measures them, scene by scene)."""
+    crossings, crossed, rays = (int(stats.get(k, 0)) for k in ("pane_crossings", "rays_through_panes", "rays"))
+    if not rays:
+        return ""
+    many = f"{crossings / 1e6:.1f} M" if crossings >= 100_000 else f"{crossings:,}"
+    share = 100 * crossed / rays
+    share = f"{share:.0f}" if share >= 10 else f"{share:.2g}"  # a window's few rays: 0.043%, not 0%
+    return f"{many} pane crossings, {share}% of the rays" if crossed else "no ray crossed a pane"
+
+
+# The rows whose cost a solve's stats give: short words -> the cost's text from the stats.
+_COSTS = {"Transmission": _transmission_cost}
+
+
+def costed(listed, stats):
+    """items() after a solve: each row [kind, short, detail, cost], cost the text of what `stats` (the
+    engine's solve stats) count of it, "" where they count nothing for it."""
+    return [list(row[:3]) + [_COSTS[row[1]](stats) if row[1] in _COSTS else ""] for row in listed]
+
+
+def described(row):
+    """A row's detail with its cost, if it has one: the report's words and the panel's tooltip."""
+    kind, short, detail, *cost = row
+    return f"{detail} [cost: {cost[0]}]" if cost and cost[0] else detail
+
+
 def sentence(listed):
-    """The report's sentence of items(): what is simulated or approximated, then what is left out."""
-    return ", ".join([detail for kind, _, detail in listed if kind != LEFT_OUT]
-                     + ["left out: " + ", ".join(detail for kind, _, detail in listed if kind == LEFT_OUT)])
+    """The report's sentence of items() (or costed()): what is simulated or approximated, then what is
+    left out."""
+    return ", ".join([described(row) for row in listed if row[0] != LEFT_OUT]
+                     + ["left out: " + ", ".join(described(row) for row in listed if row[0] == LEFT_OUT)])

@@ -98,10 +98,11 @@ class BakeJob:
     @property
     def effects(self):
         """effects.items of the scene exported, worked out when first read (a bake's report), not for every
-        live edit: it sorts every mesh's edges."""
+        live edit: it sorts every mesh's edges. Once solved, with what the solve counted of their cost
+        (effects.costed)."""
         if self._effects is None:
             self._effects = effects.items(self.exported)
-        return self._effects
+        return self._effects if self.stats is None else effects.costed(self._effects, self.stats)
 
     @property
     def incremental(self):

@@ -243,7 +243,7 @@ def draw_results(layout, context):
         listed = []
     for kind, title, icon in ((effects.SIMULATED, "Simulated", 'CHECKMARK'),
                               (effects.APPROXIMATED, "Approximated", 'DOT'), (effects.LEFT_OUT, "Left out", 'REMOVE')):
-        part = [(short, detail) for k, short, detail in listed if k == kind]
+        part = [(row[1], effects.described(row)) for row in listed if row[0] == kind]
         if not part:
             continue
         col = layout.column(align=True)

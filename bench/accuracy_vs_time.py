@@ -6,28 +6,35 @@
     blender -b --factory-startup --python bench/accuracy_vs_time.py -- --plot-only   (PNG and table from the CSV)
 
 --quick: cornell_box, draft, Cycles at 16/64 spp (corners) and 16 (dense), into results/*_quick.* (~30 s).
+--scenes: the rows of the scenes not run are kept from the CSV as they are.
 --keep-cycles: only our presets run; Cycles' rows (which do not change with the engine) and ours of
-the scenes and presets not run are kept from the CSV as they are (~3 min for draft, default and high).
+the presets not run are kept from the CSV as they are too (~3 min for draft, default and high).
 The full run takes about 30 min on 2 cores, most of it the `reference` preset.
 
-For each sample scene (animated_room at frame 1):
+For each sample scene (animated_room at frame 1; window_room and mirror_room, the optics samples, against
+their own references, optics_references.py: Cycles with glossy and transmission bounces on, and the
+pane's or the mirror's corners left out of every error):
   ours    each preset through the add-on's pipeline (addon/bake.py BakeJob with the preset, then
           writeback.write_all): seconds = export + solve + write-back wall time. A solve still running
           after --max-seconds is cancelled (row kept, no error); `reference` only runs when its
           predicted time (high's time x high/default) fits in --max-seconds.
   cycles  COMBINED bake into a face-corner FLOAT_COLOR attribute at 16..4096 samples, settings
-          cycles_settings.unbiased (DESIGN.md section 4, 64 bounces), seed 1 (the reference is seed 0:
-          with the same seed its first samples would be Cycles' own). seconds = the bake operator.
+          cycles_settings.unbiased (DESIGN.md section 4, 64 bounces; with_optics too for the optics
+          samples), seed 1 (the reference is seed 0: with the same seed its first samples would be
+          Cycles' own). seconds = the bake operator.
           It bakes only the cage's corners (92 on the Cornell box), so it is cheap on these cages.
   cycles_dense  the same bake on the dense reference's layout (per-face 0.25 m grids, the evaluated
-          mesh of subdivided objects: thousands of points, about our patch density) at 16..1024 spp.
+          mesh of subdivided objects: thousands of points, about our patch density) at 16..1024 spp;
+          not for the optics samples, which have no dense reference.
 Errors: reference.relative_rms. corner_rms: over the non-emitting face corners against the cached
 262,144-spp corner bake, as tests/addon/test_cycles_agreement.py computes it. dense_rms: ours, the
 engine's refined patch corners against the 4,096-spp dense reference interpolated there, as
 compare_engine.py does; cycles_dense, its grid points against the same reference's. limit_rms:
 the corners against the limit reference (Cycles' corners off junctions, trace_corner.py's on them:
-reference.limit_reference), where the scene is traced; a row "cycles_converged" gives the 262,144-spp
-corners' own limit_rms, the floor that no sample count of Cycles' vertex bake goes under.
+reference.limit_reference), where the scene is traced; for the optics samples Cycles' inset bake
+(a little inside the face) stands on the junctions, as test_cycles_agreement.py judges them. A row
+"cycles_converged" gives the reference corners' own limit_rms, the floor that no sample count of
+Cycles' vertex bake goes under.
 Runs under 10 s are repeated (3 in all) and the median time kept.
 
 Writes bench/results/accuracy_vs_time.csv, .md (tables.py) and .png, and prints the table, the speed-up at equal
@@ -52,11 +59,12 @@ from conftest import load_package  # noqa: E402  (the add-on from addon/, its en
 import compare_engine  # noqa: E402  (grid_lookup, face_frames; puts build/engine on sys.path)
 import cycles_settings  # noqa: E402
 import make_references  # noqa: E402  (grid_mesh: the dense layout; world_faces, emitting_corners)
+import optics_references  # noqa: E402  (the optics samples' references and their pane or mirror)
 import plot_png  # noqa: E402
 import reference  # noqa: E402
 import tables  # noqa: E402
 
-SCENES = {"cornell_box": None, "subsurf_room": None, "animated_room": 1}
+SCENES = {"cornell_box": None, "subsurf_room": None, "animated_room": 1, "window_room": None, "mirror_room": None}
 PRESETS = ["draft", "default", "high", "reference"]
 SPP = [16, 64, 256, 1024, 4096]
 DENSE_SPP = [16, 64, 256, 1024]      # the dense reference itself is 4,096 spp
@@ -72,7 +80,10 @@ NOTES = """Relative RMS error against cached Cycles references (tests/cycles_ref
 non-emitting cage corners (what the `Radiosity` attribute holds) against Cycles' 262,144-spp vertex
 bake; dense: our refined patch corners (cycles_dense: Cycles' 0.25 m grid points) against a
 4,096-spp dense bake; limit: the corners against the limit reference (Cycles off junctions, a path
-tracer 1e-5 inside the face on them; traced scenes only). Time: export + solve + write-back for ours
+tracer 1e-5 inside the face on them; traced scenes only; window_room and mirror_room: Cycles a little
+inside the face on them). The optics samples are judged against their own references (glossy and
+transmission bounces on; 1,048,576 and 524,288 spp), over every corner but the pane's or the mirror's,
+and Cycles bakes them with the same bounces on. Time: export + solve + write-back for ours
 (median of 3 under 10 s), the bake operator for Cycles; `cycles_converged` is the reference bake
 itself; a row of ours without errors was stopped at --max-seconds. 2 shared cores: the CSV's load1
 column gives the load average at each row."""
@@ -106,6 +117,18 @@ def options():
         plot_only="--plot-only" in argv, quick=quick, keep_cycles="--keep-cycles" in argv)
 
 
+def load_reference(name, frame):
+    """The scene's Cycles corner reference; the optics samples' own (optics_references.py)."""
+    if name in optics_references.OPTIC:
+        return reference.read_npz(optics_references.path_of(name))
+    return reference.load(name, frame)
+
+
+def optic(name):
+    """The objects whose corners no error counts: the optics sample's pane or mirror."""
+    return (optics_references.OPTIC[name],) if name in optics_references.OPTIC else ()
+
+
 def open_scene(name, frame):
     bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_blends", name + ".blend"))
     if frame is not None:
@@ -114,12 +137,12 @@ def open_scene(name, frame):
 
 
 # ----------------------------------------------------------------------------- error
-def corner_table(scene, read, ref):
-    """Non-emitting corners of every rendered mesh: (values (K,3) read by `read`, or None without it,
-    reference (K,3), [(object, loop)])."""
+def corner_table(scene, read, ref, skip=()):
+    """Non-emitting corners of every rendered mesh but those named in `skip`: (values (K,3) read by
+    `read`, or None without it, reference (K,3), [(object, loop)])."""
     vals, refs, where = [], [], []
     for ob in scene.objects:
-        if ob.type != 'MESH' or ob.hide_render:
+        if ob.type != 'MESH' or ob.hide_render or ob.name in skip:
             continue
         keep = ~make_references.emitting_corners(ob)
         if read is not None:
@@ -129,10 +152,15 @@ def corner_table(scene, read, ref):
     return None if read is None else np.concatenate(vals), np.concatenate(refs), where
 
 
-def limit_error(values, r, where, kinds, traced):
+def limit_error(name, values, r, where, kinds, ref, traced):
     """Relative RMS of `values` against the limit reference at the corners `where` (r: Cycles'
-    corners there, kinds: classify's), as a CSV field; "" where the scene is not traced."""
-    per = {o: reference.traced_reference(traced, o) for o in dict.fromkeys(o for o, _ in where)}
+    corners there, kinds: classify's), as a CSV field; "" where the scene is not traced. On the
+    junctions of the optics samples: Cycles' inset corners (`ref`)."""
+    objects = dict.fromkeys(o for o, _ in where)
+    if name in optics_references.OPTIC:
+        per = {o: reference.corner_reference(ref, o, inset=True) for o in objects}
+    else:
+        per = {o: reference.traced_reference(traced, o) for o in objects}
     if any(t is None for t in per.values()):
         return ""
     t = np.array([per[o][li] for o, li in where])
@@ -141,13 +169,13 @@ def limit_error(values, r, where, kinds, traced):
 
 
 def cycles_converged(name, frame):
-    """The 262,144-spp reference's own corners against the limit reference: Cycles' floor there."""
-    ref, traced = reference.load(name, frame), reference.load_traced(name, frame)
+    """The corner reference's own corners against the limit reference: Cycles' floor there."""
+    ref, traced = load_reference(name, frame), reference.load_traced(name, frame)
     scene = open_scene(name, frame)
-    _, r, where = corner_table(scene, None, ref)
-    return dict(scene=label(name, frame), method="cycles_converged", setting="262144",
+    _, r, where = corner_table(scene, None, ref, optic(name))
+    return dict(scene=label(name, frame), method="cycles_converged", setting=str(int(ref["samples_corner"])),
                 seconds=f"{float(ref['seconds_corner']):.3f}", corner_rms="", dense_rms="",
-                limit_rms=limit_error(r, r, where, classify(scene, where), traced), load1="",
+                limit_rms=limit_error(name, r, r, where, classify(scene, where), ref, traced), load1="",
                 note="the corner reference itself; seconds as it was baked")
 
 
@@ -189,7 +217,7 @@ def median_time(run, first_seconds):
 
 def run_ours(pkg, name, frame, preset, max_seconds):
     """One preset through export + solve + write-back. Returns (row, detail or None)."""
-    ref = reference.load(name, frame)
+    ref = load_reference(name, frame)
 
     def once():
         scene = open_scene(name, frame)
@@ -210,24 +238,27 @@ def run_ours(pkg, name, frame, preset, max_seconds):
         row.update(seconds=f"{total:.3f}", corner_rms="", dense_rms="",
                    note=f"stopped after {t_solve:.0f} s (--max-seconds), residual {job.residual:.2g}")
         return row, None
-    v, r, where = corner_table(scene, lambda ob: pkg.writeback.read_mesh(ob.data)[:, :3], ref)
+    v, r, where = corner_table(scene, lambda ob: pkg.writeback.read_mesh(ob.data)[:, :3], ref, optic(name))
     corner = reference.relative_rms(v, r)
     kinds = classify(scene, where)
-    limit = limit_error(v, r, where, kinds, reference.load_traced(name, frame))
-    dense = dense_error(job, ref)
+    limit = limit_error(name, v, r, where, kinds, ref, reference.load_traced(name, frame))
+    dense = "" if name in optics_references.OPTIC else f"{dense_error(job, ref):.5f}"
     st = job.stats
     detail = dict(values=v, ref=r, where=where, kinds=kinds)
     seconds = median_time(lambda: once()[2][3], total)
-    row.update(seconds=f"{seconds:.3f}", corner_rms=f"{corner:.5f}", dense_rms=f"{dense:.5f}", limit_rms=limit,
+    row.update(seconds=f"{seconds:.3f}", corner_rms=f"{corner:.5f}", dense_rms=dense, limit_rms=limit,
                note=f"export {t_export:.2f} s, solve {t_solve:.2f} s, write {t_write:.3f} s; "
                     f"{st.get('patches', 0)} patches, {st.get('points', 0)} points, "
                     f"{st.get('rays', 0) / 1e6:.0f} Mrays, residual {st.get('residual', 0):.1e}")
     return row, detail
 
 
-def cycles_bake(scene, samples, domain='CORNER'):
-    """Cycles' COMBINED bake of every rendered mesh into a new ATTR attribute; returns its seconds."""
+def cycles_bake(scene, samples, domain='CORNER', optics=False):
+    """Cycles' COMBINED bake of every rendered mesh into a new ATTR attribute (`optics`: with glossy
+    and transmission bounces on, as the optics samples' references); returns its seconds."""
     cycles_settings.unbiased(scene, samples, 64, CYCLES_SEED)
+    if optics:
+        cycles_settings.with_optics(scene)
     scene.render.bake.target = 'VERTEX_COLORS'
     scene.render.bake.use_selected_to_active = False
     bpy.ops.object.select_all(action='DESELECT')
@@ -254,15 +285,16 @@ def read_attr(ob):
 
 
 def run_cycles(name, frame, spp):
-    """Cycles at the cage corners, against the 262,144-spp corner reference."""
-    ref = reference.load(name, frame)
+    """Cycles at the cage corners, against the corner reference."""
+    ref = load_reference(name, frame)
+    optics = name in optics_references.OPTIC
     scene = open_scene(name, frame)
-    seconds = cycles_bake(scene, spp)
+    seconds = cycles_bake(scene, spp, optics=optics)
     load1 = os.getloadavg()[0]
-    v, r, where = corner_table(scene, read_attr, ref)
+    v, r, where = corner_table(scene, read_attr, ref, optic(name))
     corner = reference.relative_rms(v, r)
-    limit = limit_error(v, r, where, classify(scene, where), reference.load_traced(name, frame))
-    seconds = median_time(lambda: cycles_bake(open_scene(name, frame), spp), seconds)
+    limit = limit_error(name, v, r, where, classify(scene, where), ref, reference.load_traced(name, frame))
+    seconds = median_time(lambda: cycles_bake(open_scene(name, frame), spp, optics=optics), seconds)
     n = len(v)
     note = f"{n} corners" + ("; includes the reference's own error (README)" if spp >= 1024 else "")
     return dict(scene=label(name, frame), method="cycles", setting=str(spp), seconds=f"{seconds:.3f}",
@@ -467,18 +499,17 @@ def plot(rows, path):
     c.text(left, y, "Error: against Cycles at 262,144 spp (cage corners) and 4,096 spp (dense grid); limit: Cycles "
            "off junctions, a path tracer 1e-5 into the face on them. "
            "Time: export + solve + write-back (ours), the bake operator (Cycles).", (90, 90, 90), 1)
-    c.text(left, y + 14, "Labels: preset (ours), samples per pixel (Cycles). 2 cores, shared: see the CSV's load column.",
+    c.text(left, y + 14, "Labels: preset (ours), samples per pixel (Cycles). 2 cores, shared: see the CSV's load column. "
+           "Window and mirror rooms: against their own references (optics on), Cycles inset on junctions.",
            (90, 90, 90), 1)
     c.save(path)
 
 
 def main():
     opt = options()
-    if opt["plot_only"] or opt["keep_cycles"]:
-        with open(CSV) as f:
-            kept = list(csv.DictReader(f))
     if opt["plot_only"]:
-        rows = kept
+        with open(CSV) as f:
+            rows = list(csv.DictReader(f))
         report(rows)
         save(rows, CSV)
         plot(rows, PNG)
@@ -488,10 +519,14 @@ def main():
     engine = pkg.engine.load_engine()
     print(f"engine: {engine.__file__}; cores {os.cpu_count()}; load average at start {os.getloadavg()}")
     rows, details = [], {}
-    if opt["keep_cycles"]:  # and whatever of ours is not run again
+    if not opt["quick"] and os.path.exists(CSV):
+        with open(CSV) as f:
+            kept = list(csv.DictReader(f))
+        # The scenes not run keep their rows; with --keep-cycles, so do the Cycles rows of those run
+        # and our presets not run again.
         run = {label(name, SCENES[name]) for name in opt["scenes"]}
-        rows = [r for r in kept if r["scene"] not in run or r["method"] in ("cycles", "cycles_dense")
-                or (r["method"] == "ours" and r["setting"] not in opt["presets"])]
+        rows = [r for r in kept if r["scene"] not in run or opt["keep_cycles"] and (
+                r["method"] in ("cycles", "cycles_dense") or (r["method"] == "ours" and r["setting"] not in opt["presets"]))]
     for name in opt["scenes"]:
         frame = SCENES[name]
         if name == opt["scenes"][0] and not opt["keep_cycles"]:
@@ -500,7 +535,7 @@ def main():
         for spp in [] if opt["keep_cycles"] else opt["spp"]:
             rows.append(run_cycles(name, frame, spp))
             print("ROW", rows[-1], flush=True)
-        for spp in [] if opt["keep_cycles"] else opt["dense_spp"]:
+        for spp in [] if opt["keep_cycles"] or name in optics_references.OPTIC else opt["dense_spp"]:
             rows.append(run_cycles_dense(name, frame, spp))
             print("ROW", rows[-1], flush=True)
         times = {}

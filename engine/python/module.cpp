@@ -88,6 +88,8 @@ py::dict stats_dict(const SolveStats& s) {
   d["residual"] = s.residual;
   d["shots"] = s.shots;
   d["rays"] = s.rays;
+  d["pane_crossings"] = s.pane_crossings;
+  d["rays_through_panes"] = s.rays_through_panes;
   d["patches"] = s.patches;
   d["uniform_patches"] = s.uniform_patches;
   d["points"] = s.points;

@@ -95,6 +95,7 @@ class OcclusionBatch {
   const Visibility& visibility() const { return vis_; }
   long long rays_traced() const { return traced_; }
   long long rays_pushed() const { return pushed_; }
+  const Crossings* crossings() const { return crossings_.get(); }  // null while no ray could cross a pane
 
  private:
   // A segment is pushed with tfar = kSegment; flush() shortens it to stop epsilon before its end.

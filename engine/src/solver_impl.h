@@ -274,7 +274,11 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
       spare_front[i] = spare_back[i] = dvec3(0.0);
   });
   long long rays = 0;
-  for (OcclusionBatch* b : pending) rays += b->rays_traced();
+  for (OcclusionBatch* b : pending) {
+    rays += b->rays_traced();
+    if (const Crossings* c = b->crossings())
+      stats.pane_crossings += c->hits(), stats.rays_through_panes += c->rays_crossing();
+  }
   if constexpr (!std::is_same_v<std::decay_t<Then>, Nothing>)
     if (passed_over.load(std::memory_order_relaxed) == 0) then();
   stats.rays += rays;

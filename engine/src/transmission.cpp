@@ -45,6 +45,8 @@ std::array<float, 3> Transmission::at(double cos_i) const {
 bool Crossings::add(unsigned id, float t, int object, int patch, const std::array<float, 3>& rgb) {
   Ray& r = rays_[id];
   if (r.count == kMaxLayers) return false;
+  rays_crossing_ += r.count == 0;
+  ++hits_;
   r.layer[r.count++] = {t, object, patch, rgb};
   return true;
 }

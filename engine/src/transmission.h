@@ -59,6 +59,10 @@ class Crossings {
   // Ray `id` crosses `patch` of `object` at parameter t, which passes `rgb`; false if the ray has no
   // room left for it (it is then blocked).
   bool add(unsigned id, float t, int object, int patch, const std::array<float, 3>& rgb);
+  // What add() took since the Crossings was made, the cost of panes a solve reports: hits on panes
+  // (a ray through an edge meets both quads: two), and rays with one or more, blocked elsewhere or not.
+  long long hits() const { return hits_; }
+  long long rays_crossing() const { return rays_crossing_; }
   // What the panes `ray` crossed let through together, multiplied in order along the ray (by t, then
   // patch): traversal order, which changes when the scene is rebuilt, does not change a bit. Hits
   // of one object within `eps` (world units) of each other along the ray are one crossing: a ray
@@ -77,6 +81,7 @@ class Crossings {
     std::array<Layer, kMaxLayers> layer;
   };
   std::vector<Ray> rays_;
+  long long hits_ = 0, rays_crossing_ = 0;
 };
 
 }  // namespace radiosity

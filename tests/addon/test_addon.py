@@ -452,9 +452,9 @@ def test_the_bake_says_what_it_simulated_and_what_it_left_out(addon):
     assert len(infos) >= 2 and infos[-2].endswith("simulated: " + effects)
     assert infos[-1] == f"Radiosity: baked 1 object in {scene.radiosity.last_seconds:.1f} s; Show Bake shows it"
     listed = json.loads(scene.radiosity.last_effect_items)
-    assert [short for kind, short, _ in listed if kind == "simulated"][:3] == ["1 point lamp", "1 sun lamp",
-                                                                             "World light"]
-    assert {kind for kind, _, _ in listed} == {"simulated", "left out"}
+    assert [short for kind, short, *_ in listed if kind == "simulated"][:3] == ["1 point lamp", "1 sun lamp",
+                                                                              "World light"]
+    assert {kind for kind, *_ in listed} == {"simulated", "left out"}
 
 
 def test_panels_draw(addon):

@@ -169,6 +169,21 @@ def test_power_balance_holds_with_a_transmissive_wall():
     assert (b["unshot"] + b["absorbed"] + b["transmitted"]) / b["injected"] == pytest.approx(1.0, abs=0.01)
 
 
+def test_a_solve_counts_the_rays_that_cross_a_pane():
+    """The floor alone (8 x 8 patches, 81 points) traces one ray a point to the sun; under a pane
+    wider than the light's reach (black: it sends nothing on), each of those rays crosses it once,
+    off its edges and diagonals, and no other ray does: the solve's pane crossings and rays through
+    panes are the open floor's rays."""
+    to_sun = np.array([0.13, 0.07, -1.0])
+    def sun(scene):
+        scene.add_sun_light(tuple(to_sun / np.linalg.norm(to_sun)), (3.0, 3.0, 3.0))
+    open_floor = floor_under([], sun)[0].stats
+    assert open_floor["rays"] == 81 and open_floor["pane_crossings"] == open_floor["rays_through_panes"] == 0
+    under_pane = floor_under([(1.0, 10.0, dict(transmittance=(0.5, 0.5, 0.5)))], sun)[0].stats
+    assert under_pane["pane_crossings"] == under_pane["rays_through_panes"] == open_floor["rays"]
+    assert under_pane["rays"] > open_floor["rays"]  # the pane's own points gather too, crossing nothing
+
+
 def opaque_scene():
     scene = engine.Scene()
     grey, red = scene.add_material((0.5, 0.5, 0.5)), scene.add_material((0.7, 0.4, 0.2))
@@ -205,6 +220,7 @@ def test_opaque_scenes_are_untouched(preset):
     stats = solver.solve()
     rays, digests = OPAQUE_RECORD[preset]
     assert stats["rays"] == rays
+    assert stats["pane_crossings"] == stats["rays_through_panes"] == 0
     for obj, digest in zip(ids, digests):
         radiance = np.asarray(solver.refined(obj)[1], np.float32)
         assert hashlib.sha256(radiance.tobytes()).hexdigest() == digest

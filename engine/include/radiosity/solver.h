@@ -17,6 +17,9 @@ struct SolveStats {
   double residual = 1.0;     // unshot power / injected power: tracks the error, the convergence measure
   long shots = 0;            // shots so far (lamps count as one)
   long long rays = 0;        // visibility rays so far
+  // Of those, hits on panes they went on through (Crossings::hits) and rays that crossed a pane:
+  // what light through glass costs, which a scene without panes never counts.
+  long long pane_crossings = 0, rays_through_panes = 0;
   int patches = 0, points = 0, shooters = 0;
   // The patches uniform refinement would make down to the smallest the light may split them to
   // (Settings::light_refinement): patches' counterpart.

@@ -1,0 +1,49 @@
+"""The bake's report names what light through glass cost the solve: the pane crossings its rays made
+and the share of its rays that crossed a pane, counted by the engine; a scene without panes has no
+such row and counts nothing."""
+import json
+import os
+import re
+import sys
+
+import bpy
+
+from conftest import ROOT
+
+sys.path.insert(0, os.path.join(ROOT, "tests", "cycles_reference"))
+import optics_references  # noqa: E402  (blacken: a material as a black Diffuse BSDF)
+
+COST = re.compile(r"(?P<crossings>[\d,.]+)(?P<mega> M)? pane crossings, (?P<share>[\d.]+)% of the rays")
+
+
+def bake_draft(scene):
+    scene.radiosity.preset = 'DRAFT'
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    return {row[1]: row for row in json.loads(scene.radiosity.last_effect_items)}
+
+
+def test_the_report_names_what_light_through_the_pane_cost(addon, open_sample):
+    # The sun reaches the window room's inside through its pane alone: rays that carry it cross the pane.
+    rows = bake_draft(open_sample("window_room"))
+    kind, _, detail, cost = rows["Transmission"]
+    assert kind == addon.effects.SIMULATED
+    found = COST.fullmatch(cost)
+    assert found, cost
+    crossings = float(found["crossings"].replace(",", "")) * (1e6 if found["mega"] else 1)
+    rays = bpy.context.scene.radiosity.last_rays
+    # Each ray that crossed crossed once or more (the figures as rounded for the report), and some of
+    # the solve's rays did, not all.
+    share = float(found["share"]) / 100
+    assert crossings + (0.05e6 if found["mega"] else 0) >= rays * share * 0.95
+    assert 0 < share < 1
+    assert all(c == "" for short, (_, _, _, c) in rows.items() if short != "Transmission")
+    assert f"{detail} [cost: {cost}]" in bpy.context.scene.radiosity.last_effects
+
+
+def test_a_scene_without_panes_has_no_transmission_cost(addon, open_sample):
+    scene = open_sample("window_room")
+    optics_references.blacken(bpy.data.materials["Pane"])   # the pane an opaque black one
+    rows = bake_draft(scene)
+    assert "Transmission" not in rows
+    assert all(cost == "" for _, _, _, cost in rows.values())
+    assert "cost:" not in scene.radiosity.last_effects
