@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <cstdint>
 
 namespace radiosity {
@@ -10,24 +11,33 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A fixed per-receiver offset of the sample pattern within its cells, two numbers in [0, 1): a
-// solve stays deterministic, and over the receivers each sample falls anywhere in its cell with equal
-// chance, so what they gather is right on average. A pattern fixed in its cells (only turned about
-// the centre) puts every receiver's samples at the same few distances from the centre: for the sky
-// the same few elevations, which weigh a window by the rings of samples it meets rather than by its
-// size (a floor under a window reads its sky high), and shadows band where they should be noise.
+// A fixed offset of the sample pattern within its cells per receiving place, two numbers in [0, 1):
+// a solve stays deterministic, and over the receivers each sample falls anywhere in its cell with
+// equal chance, so what they gather is right on average. A pattern fixed in its cells (only turned
+// about the centre) puts every receiver's samples at the same few distances from the centre: for
+// the sky the same few elevations, which weigh a window by the rings of samples it meets rather than
+// by its size (a floor under a window reads its sky high), and shadows band where they should be
+// noise. Drawn from the place's coordinates, not the receiver's index: a place gathers the same
+// samples whatever the objects around it, or their order, so one face of two meshes alike (an
+// object and its modifiers applied) gets the same light.
 struct Offset {
   double u, v;
 };
 
-Offset receiver_offset(int receiver) {
+Offset place_offset(const dvec3& x) {
   auto mix = [](uint32_t h) {
     h ^= h >> 16;
     h *= 0x45d9f3bu;
     h ^= h >> 16;
     return h;
   };
-  uint32_t h = mix(uint32_t(receiver) * 2654435761u);
+  uint32_t h = 0x2545f491u;  // not 0: the origin's bits would give no offset at all
+  for (int k = 0; k < 3; ++k) {
+    float c = float(x[k]);
+    uint32_t bits;
+    std::memcpy(&bits, &c, sizeof bits);
+    h = mix(h * 2654435761u ^ bits);
+  }
   uint32_t g = mix(h * 0x9e3779b9u + 0x7f4a7c15u);
   return {(h & 0xFFFFFF) / double(0x1000000), (g & 0xFFFFFF) / double(0x1000000)};
 }
@@ -86,7 +96,7 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
     dvec3 t, b;
     orthonormal_basis(to_sun, t, b);
     double spread = std::tan(0.5 * lamp.angle);
-    disc_samples(samples, receiver_offset(receiver), [&](double u, double v, double w) {
+    disc_samples(samples, place_offset(x), [&](double u, double v, double w) {
       dvec3 dir = to_sun + spread * (u * t + v * b);
       batch.to_infinity(receiver, x, n, dir, front, w * h);
     });
@@ -114,7 +124,7 @@ void gather_lamp(const Lamp& lamp, int samples, int receiver, const ReceiverPoin
   }
   dvec3 t, b;
   orthonormal_basis(to_lamp, t, b);
-  disc_samples(samples, receiver_offset(receiver), [&](double u, double v, double w) {
+  disc_samples(samples, place_offset(x), [&](double u, double v, double w) {
     dvec3 y = lamp.position + lamp.radius * (u * t + v * b);
     batch.to_point({receiver, x, n}, {y, no_normal}, front, w * h);
   });
@@ -135,7 +145,7 @@ void gather_world(const WorldMap& sky, int samples, int receiver, const Receiver
   for (int side = 0; side < 2; ++side) {
     if (side == point.enclosed_side) continue;  // a closed object's inside sees no sky
     dvec3 n = side == 0 ? point.normal : -point.normal;
-    disc_samples(samples * kSkyRaysPerLampRay, receiver_offset(receiver), [&](double u, double v, double w) {
+    disc_samples(samples * kSkyRaysPerLampRay, place_offset(point.position), [&](double u, double v, double w) {
       dvec3 dir = u * t + v * b + std::sqrt(std::max(0.0, 1.0 - u * u - v * v)) * n;
       batch.to_infinity(receiver, point.position, point.normal, dir, side == 0, w * sky.at(dir));
     });

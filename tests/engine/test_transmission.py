@@ -201,15 +201,16 @@ def opaque_scene():
 # Invariant: opaque scenes are untouched. Rays and every patch corner's radiance (float32, SHA-256)
 # of opaque_scene() on one thread, recorded from an engine that differs from the one before it traced
 # light through panes (commit e9f484e) only in the solve's stop (Solver::Impl::measure_landing) and in
-# the sampling of lamps' discs and the sky (lights.cpp: the pattern's offset in its cells, the sky's
-# rays): a scene where nothing lets light through is traced and summed as it was.
+# the sampling of lamps' discs and the sky (lights.cpp: the pattern's offset in its cells, drawn from
+# the receiving place, and the sky's rays): a scene where nothing lets light through is traced and
+# summed as it was.
 OPAQUE_RECORD = {
-    "draft": (156391, ["565d73a03ddae485cb4356689d43635f5b14155a245cd3c8851c23d10f9c9818",
-                       "4479b4c1972bf821cb301bb672fee3492b6888fa7ac3e1f354e38c618062e269",
-                       "2a3fbed66793a30422feb30c6cfd658998a09d28b185bd613767663a7cd71a0f"]),
-    "default": (639321, ["aef18b390db100240a5ed505f24f154e01b6adb1cc88cab14befdbd1a30bb782",
-                         "b05f467bece1e5919f0f0d0a614f56b4694fa859206fc5387605a448fdde5ccd",
-                         "970d731962e90eb2251311624644614a4b9f5270d8f930a7908733beb2b173f7"]),
+    "draft": (156391, ["4dd2dd423d00030f933f995d3519225818d6be46ffe98df61f36cc8bc477ee46",
+                       "faabc5aa7b55726ec4b69da84ee853350801a5e73cde1501d22fb446075713d2",
+                       "65a0f53f9b2733ed7771aff105e3dd72cd093539e6e3325abd24b13d7d8f74d7"]),
+    "default": (639321, ["5ebe9c77f2eb23081b7ef071258ba9aa1d06bff2267f4aeac9b01b2ab67ca038",
+                         "69ab5f980f1135752e848a19e64f464437762953a4898e261be5a6976d736729",
+                         "f55be0b0a86c83ead65642ad31bf12c5be99cda6bcc30384c8148585599de66d"]),
 }
 
 
