@@ -141,39 +141,48 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   bool optics = std::any_of(changes.materials.begin(), changes.materials.end(),
                             [&](const auto& c) { return optics_differ(scene.materials[c.first], c.second); });
   bool transmits = optics || vis->transmits();
-  if (!injected) {  // nothing gathered yet: the first solve will see the new scene
+  // Light by way of a mirror comes from the images of what shoots at it, which an update's changed
+  // rays do not follow: a scene with mirrors forgets its light and is solved afresh, changed.
+  bool mirrored = injected && !mirrors.empty();
+  double unshot_before = 0.0;
+  if (mirrored) {
+    restart();
+    stats.restart = "mirrors: updates in scenes with mirrors are full solves";
+  }
+  if (!injected) {  // nothing gathered yet (or forgotten): the next solve sees the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
     for (const auto& [i, m] : changes.materials) take_material(i, m);
     if (optics) take_optics();
     for (const auto& [i, l] : changes.lamps) scene.lamps[i] = l;
     if (changes.world) scene.world = *changes.world;
-    return done();
+    if (!mirrored) return done();
+  } else {
+    double light = injected_power;
+    unshot_before = total_unshot_power();
+    // What the near direct light worked out stands where the direct light does (a read costs seconds
+    // in a large room): only objects moved, none of them an emitter, and only near them.
+    bool light_changed = changes.world || !changes.lamps.empty() || !changes.materials.empty();
+    std::vector<int> objects;
+    std::vector<Zone> zones;
+    for (const auto& [o, m] : changes.meshes) {
+      objects.push_back(o);
+      for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
+        light_changed = light_changed || mesh.emits(q);
+    }
+    // The reflected light every point's surroundings send changes with any change.
+    if (light_changed || settings.exact_near_reflected) near_direct.reset();
+    if (changes.world) change_world(*changes.world);
+    for (const auto& [i, l] : changes.lamps) change_lamp(i, l);
+    for (const auto& [i, m] : changes.materials) change_material(i, m);
+    zones = change_objects(changes.meshes, placed);
+    keep_near_direct(objects, zones);
+    if (optics) take_optics();
+    if (light > 0 && !(injected_power > kRestartBelow * light))
+      stats.restart = "the change left " + std::to_string(int(std::round(100 * injected_power / light))) +
+                      "% of the light (under " + std::to_string(int(100 * kRestartBelow)) + "%)";
+    else if (transmits)
+      stats.restart = "transmission: updates in scenes with glass are full solves";
   }
-  double light = injected_power;
-  double unshot_before = total_unshot_power();
-  // What the near direct light worked out stands where the direct light does (a read costs seconds
-  // in a large room): only objects moved, none of them an emitter, and only near them.
-  bool light_changed = changes.world || !changes.lamps.empty() || !changes.materials.empty();
-  std::vector<int> objects;
-  std::vector<Zone> zones;
-  for (const auto& [o, m] : changes.meshes) {
-    objects.push_back(o);
-    for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
-      light_changed = light_changed || mesh.emits(q);
-  }
-  // The reflected light every point's surroundings send changes with any change.
-  if (light_changed || settings.exact_near_reflected) near_direct.reset();
-  if (changes.world) change_world(*changes.world);
-  for (const auto& [i, l] : changes.lamps) change_lamp(i, l);
-  for (const auto& [i, m] : changes.materials) change_material(i, m);
-  zones = change_objects(changes.meshes, placed);
-  keep_near_direct(objects, zones);
-  if (optics) take_optics();
-  if (light > 0 && !(injected_power > kRestartBelow * light))
-    stats.restart = "the change left " + std::to_string(int(std::round(100 * injected_power / light))) +
-                    "% of the light (under " + std::to_string(int(100 * kRestartBelow)) + "%)";
-  else if (transmits)
-    stats.restart = "transmission: updates in scenes with glass are full solves";
   if (!stats.restart.empty()) {
     restart();
     touched.assign(mesh.points.size(), 1);

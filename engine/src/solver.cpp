@@ -217,11 +217,22 @@ std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector
       emission[p][2 * c] = emission[p][2 * c + 1] = sends ? mesh.emission[4 * p + c] : dvec3(0.0);
   }
   for (Source& s : patch_sources(emission, false, settings.samples_direct, scale, only)) out.push_back(std::move(s));
+  add_images(out);
   return out;
 }
 
 std::vector<Source> Solver::Impl::reflected_sources(double scale, const std::vector<char>* only) const {
-  return patch_sources(shot, true, settings.samples_indirect, scale, only);
+  std::vector<Source> out = patch_sources(shot, true, settings.samples_indirect, scale, only);
+  add_images(out);
+  return out;
+}
+
+// One mirror bounce a path: images are not mirrored again.
+void Solver::Impl::add_images(std::vector<Source>& sources) const {
+  size_t real = sources.size();
+  for (const auto& plane : mirrors)
+    for (size_t k = 0; k < real; ++k)
+      if (std::optional<Source> image = mirror_image(sources[k], plane)) sources.push_back(std::move(*image));
 }
 
 double Solver::Impl::landed_power() const {
@@ -234,6 +245,14 @@ double Solver::Impl::landed_power() const {
 
 // Direct light at full sample density; what lands becomes unshot radiance.
 bool Solver::Impl::inject() {
+  std::vector<std::string> curved;
+  mirrors = find_mirrors(mesh, scene, curved);
+  for (const std::string& name : curved) {
+    std::string warning = "object '" + name + "': its mirror is curved (sharp specular faces in more than " +
+                          std::to_string(kMostPlanes) + " planes), and reflects nothing";
+    if (std::find(stats.warnings.begin(), stats.warnings.end(), warning) == stats.warnings.end())
+      stats.warnings.push_back(warning);  // once, though each solve afresh finds it again
+  }
   std::vector<Source> sources = direct_sources();
   bool complete = gather_all([&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
     for (const Source& s : sources) s.gather(i, p, batch);
@@ -358,9 +377,18 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double
       }
   }
   patch_power.resize(mesh.patches.size());
+  std::vector<Source> images;
+  if (!mirrors.empty()) {
+    images.push_back(shot_source(sent, s, {n.centroid, n.radius}));
+    add_images(images);
+    images.erase(images.begin());
+  }
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
-                  [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }, true,
-                  [&] { absorb_delta(s, omega, Light::reflected); }))
+                  [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+                    gather(sent, i, p, batch);
+                    for (const Source& image : images) image.gather(i, p, batch);
+                  },
+                  true, [&] { absorb_delta(s, omega, Light::reflected); }))
     return false;
   landed = measure_landing(s, sending, magnitude);
   power = summed_power();
