@@ -30,6 +30,7 @@ MirrorPlane::MirrorPlane(std::shared_ptr<RTCDeviceTy> device, const PatchMesh& m
     centre += patch.area * patch.centre, normal += patch.area * patch.normal, area += patch.area;
   }
   origin_ = centre / area;
+  area_ = area;
   normal_ = glm::normalize(normal);
   bounds_ = {origin_, 0.0};
   for (int p : patches)
@@ -69,6 +70,15 @@ Symmetric3 MirrorPlane::reflect(const Symmetric3& s) const {
   r.xz = s.xz - 2 * (n.x * w.z + w.x * n.z) + 4 * nw * n.x * n.z;
   r.yz = s.yz - 2 * (n.y * w.z + w.y * n.z) + 4 * nw * n.y * n.z;
   return r;
+}
+
+double MirrorPlane::reach(const dvec3& centre, const dvec3& normal) const {
+  dvec3 d = origin_ - centre;
+  double d2 = glm::dot(d, d);
+  double cos_mirror = std::fabs(glm::dot(d, normal_)) / std::sqrt(d2);
+  double cos_shooter = normal == dvec3(0.0) ? 1.0 : std::fabs(glm::dot(d, normal)) / std::sqrt(d2);
+  constexpr double kPi = 3.14159265358979323846;
+  return area_ * cos_mirror * cos_shooter / (kPi * d2 + area_);
 }
 
 double MirrorPlane::crossing(const dvec3& origin, const dvec3& dir, double t_max) const {

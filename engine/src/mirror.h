@@ -38,6 +38,9 @@ class MirrorPlane {
   const dvec3& normal() const { return normal_; }
   const dvec3& reflectance() const { return reflectance_; }
   const Sphere& bounds() const { return bounds_; }
+  // About the part of the light sent from `centre` (a shooter facing `normal`, either side; zero:
+  // every way) that reaches the mirror: its disc's form factor.
+  double reach(const dvec3& centre, const dvec3& normal) const;
   double height(const dvec3& p) const { return glm::dot(p - origin_, normal_); }
   dvec3 reflect(const dvec3& p) const { return p - 2.0 * height(p) * normal_; }
   dvec3 reflect_direction(const dvec3& d) const { return d - 2.0 * glm::dot(d, normal_) * normal_; }
@@ -49,6 +52,7 @@ class MirrorPlane {
   std::shared_ptr<RTCDeviceTy> device_;  // first: the outline is released before it
   RTCScene outline_ = nullptr;            // the plane's patches alone
   dvec3 normal_, origin_, reflectance_;
+  double area_ = 0.0;
   Sphere bounds_;
 };
 

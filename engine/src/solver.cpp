@@ -17,6 +17,7 @@ namespace radiosity {
 namespace {
 
 double abs_sum(const dvec3& v) { return std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z); }
+double max_channel(const dvec3& v) { return std::max({v.x, v.y, v.z}); }
 // A patch's unshot radiance times its area, over its corners, on one side (0 front, 1 back).
 double unshot_power(const CornerUnshot& unshot, double area, int side) {
   double sum = 0.0;
@@ -377,11 +378,16 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double
       }
   }
   patch_power.resize(mesh.patches.size());
+  // Its images sample it as finely as the light each mirror passes on calls for (far_samples).
   std::vector<Source> images;
-  if (!mirrors.empty()) {
-    images.push_back(shot_source(sent, s, {n.centroid, n.radius}));
-    add_images(images);
-    images.erase(images.begin());
+  for (const auto& plane : mirrors) {
+    dvec3 facing = n.flat ? glm::normalize(n.vector_area) : dvec3(0.0);
+    double passed = power[s] * plane->reach(n.centroid, facing) * max_channel(plane->reflectance());
+    Shot dim = cluster_shot(shot_scene(), shooters[s], unshot, omega,
+                            {settings.samples_indirect, settings.near_factor, far_samples(passed)});
+    dim.reflected = true;
+    if (std::optional<Source> image = mirror_image(shot_source(std::move(dim), s, {n.centroid, n.radius}), plane))
+      images.push_back(std::move(*image));
   }
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
