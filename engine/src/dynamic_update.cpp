@@ -347,7 +347,7 @@ void Solver::Impl::take_material(int index, const Material& m) {
     if (patch.material != index) continue;
     // A textured object's reflectance (emission) is its own, per corner.
     if (scene.meshes[patch.object].corner_reflectance.empty())
-      std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
+      std::fill_n(mesh.reflectance.begin() + 4 * p, 4, diffuse_reflectance(m));
     if (scene.meshes[patch.object].corner_emission.empty())
       std::fill_n(mesh.emission.begin() + 4 * p, 4, m.emission);
   }
@@ -359,7 +359,7 @@ void Solver::Impl::change_material(int index, const Material& m) {
   // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did (of
   // their points' reflected light, `onward` times it). A textured object's reflectance (emission)
   // is its own.
-  dvec3 rho = m.reflectance - old.reflectance;
+  dvec3 rho = diffuse_reflectance(m) - diffuse_reflectance(old);
   dvec3 emission = m.emission - old.emission;
   std::vector<CornerUnshot> emitted(mesh.patches.size());
   for (size_t p = 0; p < mesh.patches.size(); ++p) {

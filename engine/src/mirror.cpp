@@ -12,11 +12,18 @@ namespace {
 // Patches of one plane: normals within about 1e-3 radians, offsets within this part of the scene.
 constexpr double kSameNormal = 1.0 - 5e-7;
 constexpr double kSameOffset = 1e-5;
+// A rough specular lobe added to the diffuse one stays below this: light must not go round for ever.
+constexpr double kMostDiffuse = 0.99;
 
 }  // namespace
 
 bool is_mirror(const Material& m) {
   return m.roughness <= kMirrorRoughness && (m.specular.x > 0 || m.specular.y > 0 || m.specular.z > 0);
+}
+
+dvec3 diffuse_reflectance(const Material& m) {
+  if (m.roughness <= kMirrorRoughness) return m.reflectance;
+  return glm::max(m.reflectance, glm::min(m.reflectance + m.specular, dvec3(kMostDiffuse)));
 }
 
 MirrorPlane::MirrorPlane(std::shared_ptr<RTCDeviceTy> device, const PatchMesh& mesh, const std::vector<int>& patches,

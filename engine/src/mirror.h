@@ -25,6 +25,9 @@ constexpr double kMirrorRoughness = 0.05;
 constexpr int kMostPlanes = 6;
 
 bool is_mirror(const Material& m);
+// What a patch of the material reflects diffusely: its reflectance and, where its specular lobe is
+// too rough to be a mirror, that lobe's colour too (spread as a diffuse solve can), kept under one.
+dvec3 diffuse_reflectance(const Material& m);
 
 class MirrorPlane {
  public:

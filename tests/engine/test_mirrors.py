@@ -2,8 +2,8 @@
 through its outline, times its colour (Cycles' Glossy BSDF: no Fresnel). Checked on the direct light
 (max_shots 0), where it is exact: a lamp's image adds R I cos / (pi d^2) at the floor points whose
 path to the image crosses the mirror, a sun's image R E cos / pi, and an emitter's image what an
-emitter of R times its radiance at the image's place would send. Updates of scenes with mirrors
-are full solves."""
+emitter of R times its radiance at the image's place would send. A rough specular lobe reflects
+diffusely. Updates of scenes with mirrors are full solves."""
 import math
 import os
 import sys
@@ -144,9 +144,19 @@ def test_an_emitters_image_sends_what_an_emitter_there_would_times_the_mirrors_c
     assert np.abs(ours / theirs - 1).mean() < 1e-3
 
 
-def test_a_rough_specular_plane_is_no_mirror():
-    points, ours = floor_radiance(*solved(with_lamp(roughness=0.3)))
-    np.testing.assert_allclose(ours, RHO * lamp_term(points, LAMP), rtol=1e-3)
+def test_a_rough_specular_plane_reflects_as_a_diffuse_one_of_its_colour():
+    def wall(lobes):
+        def build(scene):
+            ids = [floor(scene)]
+            m = Mesh()
+            m.add_face([(WALL, 2, 0), (WALL, -2, 0), (WALL, -2, 2), (WALL, 2, 2)], scene.add_material(**lobes))
+            ids.append(m.add_to(scene, refine="bilinear", patch_size=0.25))
+            scene.add_point_light(LAMP, (INTENSITY,) * 3)
+            return ids
+        return build
+    rough, _ = solved(wall(dict(reflectance=(0.25,) * 3, specular=(0.5,) * 3, roughness=0.3)), False)
+    diffuse, ids = solved(wall(dict(reflectance=(0.75,) * 3)), False)
+    np.testing.assert_array_equal(rough.refined(ids[0])[1], diffuse.refined(ids[0])[1])
 
 
 def test_updates_of_a_scene_with_a_mirror_are_full_solves():
