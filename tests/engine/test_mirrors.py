@@ -144,6 +144,26 @@ def test_an_emitters_image_sends_what_an_emitter_there_would_times_the_mirrors_c
     assert np.abs(ours / theirs - 1).mean() < 1e-3
 
 
+def test_a_mirror_does_not_show_its_own_light_again():
+    """An emitting (or diffusely reflecting) mirror's image of itself lies in its own plane: it is
+    the mirror itself, which a receiver sees once. The wall shoots in clusters with a dark shelf at
+    its foot, whose images are made (they lie off the plane) and send the shelf's light alone."""
+    def glowing_wall(specular):
+        def build(scene):
+            ids = [floor(scene)]
+            m = Mesh()
+            glow = scene.add_material((0.0, 0.0, 0.0), emission=(2.0, 2.0, 2.0), specular=(specular,) * 3, roughness=0.0)
+            m.add_face([(WALL, 2, 0.5), (WALL, -2, 0.5), (WALL, -2, 2), (WALL, 2, 2)], glow)
+            m.add_face([(WALL - 0.5, -2, 0.5), (WALL, -2, 0.5), (WALL, 2, 0.5), (WALL - 0.5, 2, 0.5)],
+                       scene.add_material((0.0, 0.0, 0.0)))
+            ids.append(m.add_to(scene, refine="bilinear", patch_size=0.25))
+            return ids
+        return build
+    mirrored, ids = solved(glowing_wall(R))
+    plain, _ = solved(glowing_wall(0.0))
+    np.testing.assert_array_equal(mirrored.refined(ids[0])[1], plain.refined(ids[0])[1])
+
+
 def test_a_rough_specular_plane_reflects_as_a_diffuse_one_of_its_colour():
     def wall(lobes):
         def build(scene):
