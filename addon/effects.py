@@ -120,7 +120,8 @@ def _optics(sx, users, meshes):
     rows += [(LEFT_OUT, "Curved mirrors", "smooth reflection off curved surfaces", curved, _sharp),
              (LEFT_OUT, "Mirror to mirror", "light between mirrors past one mirror bounce",
               planar if planes > 1 else {}, _sharp),
-             (LEFT_OUT, "World in mirrors", "world light by way of mirrors", planar if sky else {}, _sharp)]
+             (APPROXIMATED, "World in mirrors", "world light by way of mirrors, sampled as the world is (noisy in "
+              "small mirrors)", planar if sky else {}, _sharp)]
     out = []
     for kind, short, detail, *by, calls_for in rows:
         who = _named(sx, by[0] if by else users, calls_for)

@@ -153,6 +153,21 @@ MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::ve
   return planes;
 }
 
+WorldMap mirrored(const WorldMap& world, const MirrorPlane& plane) {
+  if (world.texels.size() == 1) return world;
+  constexpr double kPi = 3.14159265358979323846;
+  WorldMap image = world;
+  for (int r = 0; r < world.height; ++r)
+    for (int c = 0; c < world.width; ++c) {
+      // The direction of texel (c, r)'s centre (WorldMap::at's layout).
+      double phi = (0.5 - (c + 0.5) / world.width) * 2 * kPi;
+      double theta = ((r + 0.5) / world.height - 0.5) * kPi;
+      dvec3 d(std::cos(theta) * std::cos(phi), std::cos(theta) * std::sin(phi), std::sin(theta));
+      image.texels[size_t(r) * world.width + c] = world.at(plane.reflect_direction(d));
+    }
+  return image;
+}
+
 Shot mirrored(Shot shot, const MirrorPlane& plane) {
   auto place = [&](dvec3& p) { p = plane.reflect(p); };
   // The reflection reverses a quad's winding: the normal its corners give is the reflected one

@@ -69,5 +69,8 @@ MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::ve
 // its image sends (the reflection reverses the corners' winding, so its sides swap), and nothing a
 // receiving point would take as its own (corners, coincident targets, the shooter's enclosure).
 Shot mirrored(Shot shot, const MirrorPlane& plane);
+// The world as the plane shows it: the radiance the world sends along each reflected direction
+// (a map resampled texel by texel).
+WorldMap mirrored(const WorldMap& world, const MirrorPlane& plane);
 
 }  // namespace radiosity

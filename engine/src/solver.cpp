@@ -233,7 +233,7 @@ void Solver::Impl::add_images(std::vector<Source>& sources) const {
   size_t real = sources.size();
   for (const auto& plane : mirrors)
     for (size_t k = 0; k < real; ++k)
-      if (std::optional<Source> image = mirror_image(sources[k], plane)) sources.push_back(std::move(*image));
+      for (Source& image : mirror_images(sources[k], plane)) sources.push_back(std::move(image));
 }
 
 double Solver::Impl::landed_power() const {
@@ -386,8 +386,8 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double
     Shot dim = cluster_shot(shot_scene(), shooters[s], unshot, omega,
                             {settings.samples_indirect, settings.near_factor, far_samples(passed)});
     dim.reflected = true;
-    if (std::optional<Source> image = mirror_image(shot_source(std::move(dim), s, {n.centroid, n.radius}), plane))
-      images.push_back(std::move(*image));
+    for (Source& image : mirror_images(shot_source(std::move(dim), s, {n.centroid, n.radius}), plane))
+      images.push_back(std::move(image));
   }
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {

@@ -46,7 +46,8 @@ void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& ba
   const dvec3& x = point.position;
   if (!(side * mirror->height(x) > kOffMirror * batch.visibility().epsilon())) return;
   bool sun = kind == Kind::Lamp && lamp.type == Lamp::Type::Sun;
-  if (sun ? !sun_may_cross(lamp, x, mirror->bounds()) : !may_cross(x, bounds, mirror->bounds())) return;
+  if (kind != Kind::World && (sun ? !sun_may_cross(lamp, x, mirror->bounds()) : !may_cross(x, bounds, mirror->bounds())))
+    return;
   // The image lies beyond the walls round the receiver: a closed object's inside sees it too.
   ReceiverPoint open = point;
   open.enclosed_side = -1;
@@ -102,12 +103,18 @@ Source shot_source(Shot shot, int shooter, const Sphere& bounds) {
   return s;
 }
 
-std::optional<Source> mirror_image(const Source& source, const std::shared_ptr<const MirrorPlane>& plane) {
-  if (source.kind == Source::Kind::World) return std::nullopt;
+std::vector<Source> mirror_images(const Source& source, const std::shared_ptr<const MirrorPlane>& plane) {
+  if (source.kind == Source::Kind::World) {
+    Source image = world_source(mirrored(source.world, *plane), source.samples);
+    image.mirror = plane;
+    Source back = image;
+    back.side = -1.0;
+    return {std::move(image), std::move(back)};
+  }
   bool sun = source.kind == Source::Kind::Lamp && source.lamp.type == Lamp::Type::Sun;
   // The side the light comes from: the sun's, or the shooter's centre's.
   double h = sun ? -glm::dot(source.lamp.direction, plane->normal()) : plane->height(source.bounds.centre);
-  if (h == 0) return std::nullopt;
+  if (h == 0) return {};
   Source image;
   image.kind = source.kind;
   image.samples = source.samples;
@@ -122,7 +129,7 @@ std::optional<Source> mirror_image(const Source& source, const std::shared_ptr<c
   } else {
     image.shot = mirrored(source.shot, *plane);
   }
-  return image;
+  return {std::move(image)};
 }
 
 }  // namespace radiosity

@@ -10,7 +10,7 @@
 #include "shot.h"
 
 #include <memory>
-#include <optional>
+#include <vector>
 
 namespace radiosity {
 
@@ -37,7 +37,8 @@ struct Source {
 Source lamp_source(const Lamp& lamp, int samples);
 Source world_source(WorldMap sky, int samples);
 Source shot_source(Shot shot, int shooter, const Sphere& bounds);
-// The source's image in `plane`, if it lies off the plane (the world has none: left out).
-std::optional<Source> mirror_image(const Source& source, const std::shared_ptr<const MirrorPlane>& plane);
+// The source's images in `plane`: one on the side of the plane the source lies on (none if it lies
+// in it), the world's on both.
+std::vector<Source> mirror_images(const Source& source, const std::shared_ptr<const MirrorPlane>& plane);
 
 }  // namespace radiosity

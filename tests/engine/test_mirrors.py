@@ -1,9 +1,9 @@
 """Planar mirrors: a sharp specular plane passes on the light of the images of what shines on it,
 through its outline, times its colour (Cycles' Glossy BSDF: no Fresnel). Checked on the direct light
 (max_shots 0), where it is exact: a lamp's image adds R I cos / (pi d^2) at the floor points whose
-path to the image crosses the mirror, a sun's image R E cos / pi, and an emitter's image what an
-emitter of R times its radiance at the image's place would send. A rough specular lobe reflects
-diffusely. Updates of scenes with mirrors are full solves."""
+path to the image crosses the mirror, a sun's image R E cos / pi, the world R times the sky the wall
+hides, and an emitter's image what an emitter of R times its radiance at the image's place would
+send. A rough specular lobe reflects diffusely. Updates of scenes with mirrors are full solves."""
 import math
 import os
 import sys
@@ -110,6 +110,28 @@ def test_a_mirror_plane_adds_the_reflected_sun():
         return ids
     points, ours = floor_radiance(*solved(build))
     np.testing.assert_allclose(ours, RHO * sun * math.cos(t) / math.pi * (1 + R), rtol=1e-3)
+
+
+def test_a_mirror_plane_shows_the_world():
+    """A uniform world: where a black wall hides the sky the mirror shows it, times R. The world is
+    sampled by the same directions either way (a fixed pattern per receiver), so with F the sampled
+    part of each floor point's view the wall fills, black = RHO L (1 - F) and mirror = RHO L (1 - F + R F)."""
+    sky = 0.3
+
+    def wall(specular):
+        def build(scene):
+            ids = [floor(scene)]
+            m = Mesh()
+            material = scene.add_material((0.0, 0.0, 0.0), specular=(specular,) * 3, roughness=0.0)
+            m.add_face([(WALL, 20, 0), (WALL, -20, 0), (WALL, -20, 20), (WALL, 20, 20)], material)
+            ids.append(m.add_to(scene))
+            scene.set_world((sky, sky, sky))
+            return ids
+        return build
+    _, mirrored = floor_radiance(*solved(wall(R)))
+    _, black = floor_radiance(*solved(wall(0.0)))
+    assert (black < 0.7 * RHO * sky).all()  # the wall hides much of the sky
+    np.testing.assert_allclose(mirrored, black + R * (RHO * sky - black), rtol=1e-4)
 
 
 EMITTER = [(0.3, 0.2, 1.2), (0.7, 0.2, 1.2), (0.7, 0.5, 1.2), (0.3, 0.5, 1.2)]  # facing down
