@@ -28,7 +28,7 @@ dvec3 diffuse_reflectance(const Material& m) {
 
 MirrorPlane::MirrorPlane(std::shared_ptr<RTCDeviceTy> device, const PatchMesh& mesh, const std::vector<int>& patches,
                          const dvec3& reflectance)
-    : device_(std::move(device)), reflectance_(reflectance) {
+    : device_(std::move(device)), reflectance_(reflectance), patches_(patches) {
   // The plane through the patches' area-weighted centre, along their area-weighted normal.
   dvec3 centre(0.0), normal(0.0);
   double area = 0.0;

@@ -41,6 +41,7 @@ class MirrorPlane {
   const dvec3& normal() const { return normal_; }
   const dvec3& reflectance() const { return reflectance_; }
   const Sphere& bounds() const { return bounds_; }
+  const std::vector<int>& patches() const { return patches_; }
   // About the part of the light sent from `centre` (a shooter facing `normal`, either side; zero:
   // every way) that reaches the mirror: its disc's form factor.
   double reach(const dvec3& centre, const dvec3& normal) const;
@@ -56,6 +57,7 @@ class MirrorPlane {
   RTCScene outline_ = nullptr;            // the plane's patches alone
   dvec3 normal_, origin_, reflectance_;
   double area_ = 0.0;
+  std::vector<int> patches_;
   Sphere bounds_;
 };
 

@@ -618,6 +618,10 @@ PowerBalance Solver::power_balance() const {
   const Impl& s = *impl_;
   PowerBalance b;
   b.injected = s.injected_power;
+  // A mirror passes on its colour of what lands on it, to land again where its images light.
+  std::vector<dvec3> mirrored(s.mesh.patches.size(), dvec3(0.0));
+  for (const auto& plane : s.mirrors)
+    for (int p : plane->patches()) mirrored[p] = plane->reflectance();
   for (size_t p = 0; p < s.mesh.patches.size(); ++p) {
     const Patch& patch = s.mesh.patches[p];
     // What passes through the patch. Glass passes less at grazing angles than head on, which is
@@ -627,6 +631,8 @@ PowerBalance Solver::power_balance() const {
       std::array<float, 3> t = s.mesh.transmission[p].at(1.0);
       passes = dvec3(t[0], t[1], t[2]);
     }
+    passes += mirrored[p];
+
     for (int c = 0; c < 4; ++c) {
       int pt = patch.point[c];
       dvec3 absorb = dvec3(1.0) - s.mesh.reflectance[4 * p + c] - passes;
