@@ -142,8 +142,13 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
                             [&](const auto& c) { return optics_differ(scene.materials[c.first], c.second); });
   bool transmits = optics || vis->transmits();
   // Light by way of a mirror comes from the images of what shoots at it, which an update's changed
-  // rays do not follow: a scene with mirrors forgets its light and is solved afresh, changed.
-  bool mirrored = injected && !mirrors.empty();
+  // rays do not follow: a scene with mirrors, or where one moves in or out, forgets its light and is
+  // solved afresh, changed.
+  auto has_mirror = [&](const auto& change) {
+    const std::vector<int>& faces = change.second.face_materials;
+    return std::any_of(faces.begin(), faces.end(), [&](int m) { return is_mirror(scene.materials[m]); });
+  };
+  bool mirrored = injected && (!mirrors.empty() || std::any_of(changes.meshes.begin(), changes.meshes.end(), has_mirror));
   double unshot_before = 0.0;
   if (mirrored) {
     restart();

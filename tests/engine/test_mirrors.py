@@ -241,3 +241,11 @@ def test_updates_of_a_scene_with_a_mirror_are_full_solves():
     assert stats["restart"] == "mirrors: updates in scenes with mirrors are full solves"
     fresh, _ = solved(build(-0.5, 2 * INTENSITY), direct_only=False)
     np.testing.assert_array_equal(solver.refined(ids[0])[1], fresh.refined(ids[0])[1])
+    # A hidden mirror shown: the scene had none, and has one now.
+    solver, ids = solved(build(0.0, INTENSITY), direct_only=False)
+    solver.set_visible(ids[1], False)
+    assert solver.update()["restart"] == "mirrors: updates in scenes with mirrors are full solves"
+    solver.set_visible(ids[1], True)
+    assert solver.update()["restart"] == "mirrors: updates in scenes with mirrors are full solves"
+    fresh, _ = solved(build(0.0, INTENSITY), direct_only=False)
+    np.testing.assert_array_equal(solver.refined(ids[0])[1], fresh.refined(ids[0])[1])
