@@ -381,7 +381,8 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double
   // Its images sample it as finely as the light each mirror passes on calls for (far_samples).
   std::vector<Source> images;
   for (const auto& plane : mirrors) {
-    dvec3 facing = n.flat ? glm::normalize(n.vector_area) : dvec3(0.0);
+    double flat_area = n.flat ? glm::length(n.vector_area) : 0.0;
+    dvec3 facing = flat_area > 0 ? n.vector_area / flat_area : dvec3(0.0);
     double passed = power[s] * plane->reach(n.centroid, facing) * max_channel(plane->reflectance());
     Shot dim = cluster_shot(shot_scene(), shooters[s], unshot, omega,
                             {settings.samples_indirect, settings.near_factor, far_samples(passed)});
@@ -632,7 +633,6 @@ PowerBalance Solver::power_balance() const {
       passes = dvec3(t[0], t[1], t[2]);
     }
     passes += mirrored[p];
-
     for (int c = 0; c < 4; ++c) {
       int pt = patch.point[c];
       dvec3 absorb = dvec3(1.0) - s.mesh.reflectance[4 * p + c] - passes;
