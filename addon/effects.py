@@ -19,6 +19,54 @@ def _both_sides(m):
 
 
 SIMULATED, APPROXIMATED, LEFT_OUT = "simulated", "approximated", "left out"
+# As the engine (mirror.h): a specular lobe at most this rough is a mirror, rougher ones reflect
+# diffusely; an object whose mirror faces lie in more planes than MOST_PLANES is curved (no mirror).
+MIRROR_ROUGHNESS = 0.05
+MOST_PLANES = 6
+
+
+def _sharp(material):
+    return max(material.specular) > 0 and material.roughness <= MIRROR_ROUGHNESS
+
+
+def _mirror_planes(m, sharp):
+    """How many planes the faces of mesh `m` whose materials `sharp` marks (a bool per material) lie
+    in, each face's by Newell's normal and its mean corner (object space: a transform keeps planes
+    planes); planes a Catmull-Clark surface bends count as many."""
+    faces = sharp[m.face_materials]
+    if not faces.any():
+        return 0
+    starts = np.concatenate(([0], np.cumsum(m.face_sizes)[:-1]))
+    nxt = np.arange(len(m.face_vertices)) + 1
+    nxt[starts + m.face_sizes - 1] = starts
+    p, q = m.positions[m.face_vertices], m.positions[m.face_vertices[nxt]]
+    normal = np.add.reduceat(np.cross(p, q), starts)
+    length = np.linalg.norm(normal, axis=1)
+    kept = faces & (length > 0)
+    if not kept.any():
+        return 0
+    normal = normal[kept] / length[kept, None]
+    centre = (np.add.reduceat(p, starts) / m.face_sizes[:, None])[kept]
+    size = max(float(np.ptp(m.positions, axis=0).max()), 1e-12)
+    planes = len(np.unique(np.round(np.c_[normal * 1e3, (normal * centre).sum(1) / size * 1e5]), axis=0))
+    return MOST_PLANES + 1 if m.refine == "catmull_clark" and m.level > 0 and planes > 1 else planes
+
+
+def _mirrors(sx, meshes):
+    """{material index: objects} for the sharp specular materials on planar objects and on curved
+    ones, and the number of mirror planes."""
+    sharp = np.array([_sharp(mat) for mat in sx.materials], bool)
+    planar, curved, count = {}, {}, 0
+    for m in meshes:
+        planes = _mirror_planes(m, sharp)
+        if planes == 0:
+            continue
+        count += planes if planes <= MOST_PLANES else 0
+        for i in np.unique(m.face_materials[sharp[m.face_materials]]):
+            names = (planar if planes <= MOST_PLANES else curved).setdefault(int(i), [])
+            if m.object_name not in names:
+                names.append(m.object_name)
+    return planar, curved, count
 
 
 def _users(meshes):
@@ -42,7 +90,7 @@ def _named(sx, users, calls_for):
     return "; ".join(picked[:5]) + (" ..." if len(picked) > 5 else "")
 
 
-def _optics(sx, users):
+def _optics(sx, users, meshes):
     """The rows for light that materials pass on without diffusing it (export.Lobes): each with the
     materials that call for it and the objects that use them; none where no material does."""
     def some(lobe):
@@ -59,14 +107,24 @@ def _optics(sx, users):
         (APPROXIMATED, "Mix factors as means",
          "a Mix factor or Alpha that varies over a mesh (an image's alpha) taken as its mean",
          noted(exporter.MEAN_FACTOR)),
-        (LEFT_OUT, "Mirrors", "mirror and metal reflection, smooth or rough", some("specular")),
+        (APPROXIMATED, "Rough reflection as diffuse", "rough metal and glossy reflection spread as diffuse light",
+         lambda m: max(m.specular) > 0 and not _sharp(m)),
         (LEFT_OUT, "Glass reflections", "the light glass reflects off its faces", some("glass")),
         (LEFT_OUT, "Principled specular", "the specular layer of Principled BSDFs (their Specular input)",
          noted(exporter.SPECULAR_LAYER)),
     ]
+    planar, curved, planes = _mirrors(sx, meshes)
+    sky = np.max(np.asarray(sx.world, np.float64)) > 0
+    rows[1:1] = [(SIMULATED, f"Mirrors ({planes} plane{'s' if planes > 1 else ''})",
+                  "planar mirrors and smooth metal passing on the light that reaches them", planar, _sharp)]
+    rows += [(LEFT_OUT, "Curved mirrors", "smooth reflection off curved surfaces", curved, _sharp),
+             (LEFT_OUT, "Mirror to mirror", "light between mirrors past one mirror bounce",
+              planar if planes > 1 else {}, _sharp),
+             (APPROXIMATED, "World in mirrors", "world light by way of mirrors, sampled as the world is (noisy in "
+              "small mirrors)", planar if sky else {}, _sharp)]
     out = []
-    for kind, short, detail, calls_for in rows:
-        who = _named(sx, users, calls_for)
+    for kind, short, detail, *by, calls_for in rows:
+        who = _named(sx, by[0] if by else users, calls_for)
         if who:
             out.append([kind, short, f"{detail} ({who})"])
     return out
@@ -117,7 +175,7 @@ def items(sx):
                     "both sides of open meshes or ones with flipped faces ("
                     + ", ".join(both[:5]) + (" ..." if len(both) > 5 else "") + ")"])
     users = _users(meshes)
-    out += _optics(sx, users)
+    out += _optics(sx, users, meshes)
     # Never simulated, named with the materials that have them; the attribute holds diffuse light.
     who = _named(sx, users, lambda m: exporter.VOLUME in m.notes or exporter.SUBSURFACE in m.notes)
     out.append([LEFT_OUT, "Volumes, subsurface",

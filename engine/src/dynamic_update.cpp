@@ -145,36 +145,52 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
 
   stats.shoot_residual = stats.shoot_seconds = 0.0;
   stats.restart.clear();
-  if (!injected) {  // nothing gathered yet: the first solve will see the new scene
+  // Light by way of a mirror comes from the images of what shoots at it, which an update's changed
+  // rays do not follow: a scene with mirrors, or where one moves in or out, forgets its light and is
+  // solved afresh, changed.
+  auto has_mirror = [&](const auto& change) {
+    const std::vector<int>& faces = change.second.face_materials;
+    return std::any_of(faces.begin(), faces.end(), [&](int m) { return is_mirror(scene.materials[m]); });
+  };
+  auto makes_mirror = [&](const auto& change) { return is_mirror(change.second); };  // a material turning to one
+  bool mirrored = injected && (!mirrors.empty() || std::any_of(changes.meshes.begin(), changes.meshes.end(), has_mirror) ||
+                               std::any_of(changes.materials.begin(), changes.materials.end(), makes_mirror));
+  double unshot_before = 0.0;
+  if (mirrored) {
+    restart();
+    stats.restart = "mirrors: updates in scenes with mirrors are full solves";
+  }
+  if (!injected) {  // nothing gathered yet (or forgotten): the next solve sees the new scene
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
     for (const auto& [i, m] : changes.materials) take_material(i, m);
     if (optics) take_optics();
     for (const auto& [i, l] : changes.lamps) scene.lamps[i] = l;
     if (changes.world) scene.world = *changes.world;
-    return done();
+    if (!mirrored) return done();
+  } else {
+    double light = injected_power;
+    unshot_before = total_unshot_power();
+    // What the near direct light worked out stands where the direct light does (a read costs seconds
+    // in a large room): only objects moved, none of them an emitter, and only near them.
+    bool light_changed = changes.world || !changes.lamps.empty() || !changes.materials.empty();
+    std::vector<int> objects;
+    std::vector<Zone> zones;
+    for (const auto& [o, m] : changes.meshes) {
+      objects.push_back(o);
+      for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
+        light_changed = light_changed || mesh.emits(q);
+    }
+    // The reflected light every point's surroundings send changes with any change.
+    if (light_changed || settings.exact_near_reflected) near_direct.reset();
+    if (changes.world) change_world(*changes.world);
+    for (const auto& [i, l] : changes.lamps) change_lamp(i, l);
+    for (const auto& [i, m] : changes.materials) change_material(i, m);
+    zones = change_objects(changes.meshes, placed);
+    keep_near_direct(objects, zones);
+    if (light > 0 && !(injected_power > kRestartBelow * light))
+      stats.restart = "the change left " + std::to_string(int(std::round(100 * injected_power / light))) +
+                      "% of the light (under " + std::to_string(int(100 * kRestartBelow)) + "%)";
   }
-  double light = injected_power;
-  double unshot_before = total_unshot_power();
-  // What the near direct light worked out stands where the direct light does (a read costs seconds
-  // in a large room): only objects moved, none of them an emitter, and only near them.
-  bool light_changed = changes.world || !changes.lamps.empty() || !changes.materials.empty();
-  std::vector<int> objects;
-  std::vector<Zone> zones;
-  for (const auto& [o, m] : changes.meshes) {
-    objects.push_back(o);
-    for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
-      light_changed = light_changed || mesh.emits(q);
-  }
-  // The reflected light every point's surroundings send changes with any change.
-  if (light_changed || settings.exact_near_reflected) near_direct.reset();
-  if (changes.world) change_world(*changes.world);
-  for (const auto& [i, l] : changes.lamps) change_lamp(i, l);
-  for (const auto& [i, m] : changes.materials) change_material(i, m);
-  zones = change_objects(changes.meshes, placed);
-  keep_near_direct(objects, zones);
-  if (light > 0 && !(injected_power > kRestartBelow * light))
-    stats.restart = "the change left " + std::to_string(int(std::round(100 * injected_power / light))) +
-                    "% of the light (under " + std::to_string(int(100 * kRestartBelow)) + "%)";
   if (!stats.restart.empty()) {
     restart();
     touched.assign(mesh.points.size(), 1);
@@ -339,7 +355,7 @@ void Solver::Impl::take_material(int index, const Material& m) {
     if (patch.material != index) continue;
     // A textured object's reflectance (emission) is its own, per corner.
     if (scene.meshes[patch.object].corner_reflectance.empty())
-      std::fill_n(mesh.reflectance.begin() + 4 * p, 4, m.reflectance);
+      std::fill_n(mesh.reflectance.begin() + 4 * p, 4, diffuse_reflectance(m));
     if (scene.meshes[patch.object].corner_emission.empty())
       std::fill_n(mesh.emission.begin() + 4 * p, 4, m.emission);
   }
@@ -351,7 +367,7 @@ void Solver::Impl::change_material(int index, const Material& m) {
   // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did (of
   // their points' reflected light, `onward` times it). A textured object's reflectance (emission)
   // is its own.
-  dvec3 rho = m.reflectance - old.reflectance;
+  dvec3 rho = diffuse_reflectance(m) - diffuse_reflectance(old);
   dvec3 emission = m.emission - old.emission;
   std::vector<CornerUnshot> emitted(mesh.patches.size());
   for (size_t p = 0; p < mesh.patches.size(); ++p) {

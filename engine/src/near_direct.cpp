@@ -208,7 +208,7 @@ void Solver::Impl::prepare_near_direct(const std::vector<int>& points) const {
       // At the solve's full sampling. A piece by a box's foot sees the box fill much of its view,
       // and fewer, larger far samples (each one ray, wholly blocked or not) swing its light by
       // tens of percent.
-      near_direct->reflected = patch_sources(shot, true, settings.samples_indirect, 1.0, nullptr);
+      near_direct->reflected = reflected_sources();
     CornerUnshot none;
     none.fill(dvec3(0.0));
     near_direct->scratch.assign(mesh.patches.size(), none);

@@ -1,6 +1,7 @@
 #include "occlusion_batch.h"
 
 #include "dispatch.h"
+#include "mirror.h"
 
 #include <cmath>
 
@@ -27,6 +28,27 @@ void OcclusionBatch::through(const RayStart& from, const RayEnd& to, bool front,
   double length = glm::length(past);
   double zone = (glm::dot(dir, past) / length - eps) / length;
   push(&sum(from.receiver, front), origin, past, kThrough, share_[!front] * irradiance, to.under_patch, float(zone));
+}
+
+void OcclusionBatch::push_mirrored(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar,
+                                   const dvec3& irradiance) {
+  if (changed_) return;
+  const MirrorPlane& mirror = *mirror_;
+  bool infinite = std::isinf(tfar);
+  double t = mirror.crossing(origin, dir, infinite ? INFINITY : 1.0);
+  if (!(t > 0)) return;
+  dvec3 p = origin + t * dir;
+  // The second leg leaves the mirror lifted off it towards the receiver's side, for the real end
+  // (the image end reflected back: lifted off its surface as the image end was) or to infinity.
+  dvec3 start = p + (mirror_side_ * vis_.epsilon()) * mirror.normal();
+  dvec3 onward = infinite ? mirror.reflect_direction(dir) : mirror.reflect(origin + dir) - start;
+  if (count_ + 2 > kCapacity) flush();  // both legs in one stream
+  mirror_ = nullptr;
+  partner_[count_] = int(count_) + 1;
+  paired_ = true;
+  push(into, origin, t * dir, kSegment, irradiance * mirror.reflectance());
+  push(nullptr, start, onward, infinite ? INFINITY : kSegment, dvec3(0.0));
+  mirror_ = &mirror;
 }
 
 RADIOSITY_HOT void OcclusionBatch::flush() {
@@ -62,7 +84,18 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
     vis_.occluded(rays_, count_, coincident(), crossings_.get());
     traced_ += count_;
   }
-  if (!crossings_) {
+  if (paired_) {
+    double eps = vis_.epsilon();
+    auto through = [&](unsigned i) { return crossings_ ? crossings_->through(rays_[i], eps) : dvec3(1.0); };
+    for (unsigned i = 0; i < count_; ++i) {
+      if (!into_[i] || rays_[i].tfar < 0) continue;  // a second leg, or blocked
+      int j = partner_[i];
+      if (j < 0) *into_[i] += carried_[i] * through(i);
+      else if (rays_[j].tfar >= 0) *into_[i] += carried_[i] * through(i) * through(j);
+    }
+    std::fill(partner_, partner_ + count_, -1);
+    paired_ = false;
+  } else if (!crossings_) {
     for (unsigned i = 0; i < count_; ++i)
       if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
   } else {

@@ -12,6 +12,8 @@
 
 namespace radiosity {
 
+class MirrorPlane;
+
 // The receiving end of a ray: the receiver (the index of its light's sum), its position and normal.
 struct RayStart {
   int receiver;
@@ -34,6 +36,9 @@ struct RayEnd {
 // scene where some patch lets light through, a ray goes on through such patches and adds what they
 // let through (Crossings); else rays are traced and added as if no pane could exist.
 //
+// While a mirror is set, rays aim at a mirrored image: each becomes a two-leg path by way of the
+// mirror (set_mirror), and light adds where both legs are clear.
+//
 // With ChangedRays, a batch carries only what one object's last move changed (changed_rays.h): it
 // leaves out, as they come, the rays that cannot have changed, and has the rest sifted and traced
 // there; light that reaches a receiver without a ray cannot have changed either.
@@ -47,6 +52,7 @@ class OcclusionBatch {
     // ray's id is its slot, where its Coincident data is.
     for (unsigned i = 0; i < kCapacity; ++i) rays_[i] = make_ray(dvec3(0.0), dvec3(0.0), 0.0f), rays_[i].id = i;
     std::fill(std::begin(target_), std::end(target_), -1);
+    std::fill(std::begin(partner_), std::end(partner_), -1);
   }
   OcclusionBatch(const Visibility& vis, dvec3* front, dvec3* back, const ChangedRays& changed)
       : OcclusionBatch(vis, front, back) {
@@ -91,6 +97,12 @@ class OcclusionBatch {
   // Ray from x to infinity along dir (sun, sky).
   void to_infinity(int receiver, const dvec3& x, const dvec3& n, const dvec3& dir, bool front,
                    const dvec3& irradiance);
+  // Rays pushed from now on aim at images in `mirror` (null: none), whose receivers lie on `side` of
+  // it (+1 its normal's): each goes from the receiver to where it crosses the mirror's outline, and
+  // on from there to the real point (or along the reflected direction), and carries the light
+  // times the mirror's colour. Rays that miss the outline carry nothing. Not with ChangedRays: an
+  // update of a scene with mirrors is a solve (dynamic_update.cpp).
+  void set_mirror(const MirrorPlane* mirror, double side) { mirror_ = mirror, mirror_side_ = side; }
   void flush();
   const Visibility& visibility() const { return vis_; }
   long long rays_traced() const { return traced_; }
@@ -108,6 +120,7 @@ class OcclusionBatch {
   dvec3& sum(int receiver, bool front) { return (front ? front_ : back_)[receiver - first_]; }
   __attribute__((always_inline)) void push(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance,
                                            int under_patch = -1, float zone_start = 0.0f) {
+    if (mirror_) return push_mirrored(into, origin, dir, tfar, irradiance);
     ++pushed_;
     if (changed_ && !changed_->may_have_changed(origin, dir, tfar)) return;
     if (under_patch >= 0) {
@@ -120,6 +133,8 @@ class OcclusionBatch {
     carried_[count_] = irradiance;
     if (++count_ == kCapacity) flush();
   }
+  // push() while a mirror is set: the two legs, the second linked to the first by partner_.
+  void push_mirrored(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance);
   const Coincident* coincident() const { return coincident_ ? &coincident_rays_ : nullptr; }
 
   static constexpr unsigned kCapacity = 256;
@@ -139,6 +154,11 @@ class OcclusionBatch {
   int target_patch_[kCapacity];
   float zone_start_[kCapacity];
   bool coincident_ = false;  // some ray of the batch has them
+  // Per slot: the second leg of a path by way of a mirror (whose own slot adds nothing), or -1.
+  int partner_[kCapacity];
+  bool paired_ = false;  // some ray of the batch has one
+  const MirrorPlane* mirror_ = nullptr;
+  double mirror_side_ = 1.0;
   std::unique_ptr<Crossings> crossings_;  // made on the first flush that needs it
   const Coincident coincident_rays_{target_, target_patch_, zone_start_};
   unsigned count_ = 0;

@@ -1,6 +1,7 @@
 #include "patch_mesh.h"
 
 #include "corner_view.h"
+#include "mirror.h"
 #include "refine.h"
 
 #include <algorithm>
@@ -52,7 +53,7 @@ void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined
       if (mirrored) std::swap(value[1], value[3]);
       to.insert(to.end(), value.begin(), value.end());
     };
-    per_corner(materials[patch.material].reflectance, refined.corner_reflectance, pm.reflectance);
+    per_corner(diffuse_reflectance(materials[patch.material]), refined.corner_reflectance, pm.reflectance);
     per_corner(materials[patch.material].emission, refined.corner_emission, pm.emission);
   }
 }

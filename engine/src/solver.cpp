@@ -17,6 +17,7 @@ namespace radiosity {
 namespace {
 
 double abs_sum(const dvec3& v) { return std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z); }
+double max_channel(const dvec3& v) { return std::max({v.x, v.y, v.z}); }
 // A patch's unshot radiance times its area, over its corners, on one side (0 front, 1 back).
 double unshot_power(const CornerUnshot& unshot, double area, int side) {
   double sum = 0.0;
@@ -217,11 +218,22 @@ std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector
       emission[p][2 * c] = emission[p][2 * c + 1] = sends ? mesh.emission[4 * p + c] : dvec3(0.0);
   }
   for (Source& s : patch_sources(emission, false, settings.samples_direct, scale, only)) out.push_back(std::move(s));
+  add_images(out);
   return out;
 }
 
 std::vector<Source> Solver::Impl::reflected_sources(double scale, const std::vector<char>* only) const {
-  return patch_sources(shot, true, settings.samples_indirect, scale, only);
+  std::vector<Source> out = patch_sources(shot, true, settings.samples_indirect, scale, only);
+  add_images(out);
+  return out;
+}
+
+// One mirror bounce a path: images are not mirrored again.
+void Solver::Impl::add_images(std::vector<Source>& sources) const {
+  size_t real = sources.size();
+  for (const auto& plane : mirrors)
+    for (size_t k = 0; k < real; ++k)
+      for (Source& image : mirror_images(sources[k], plane)) sources.push_back(std::move(image));
 }
 
 double Solver::Impl::landed_power() const {
@@ -234,6 +246,14 @@ double Solver::Impl::landed_power() const {
 
 // Direct light at full sample density; what lands becomes unshot radiance.
 bool Solver::Impl::inject() {
+  std::vector<std::string> curved;
+  mirrors = find_mirrors(mesh, scene, curved);
+  for (const std::string& name : curved) {
+    std::string warning = "object '" + name + "': its mirror is curved (sharp specular faces in more than " +
+                          std::to_string(kMostPlanes) + " planes), and reflects nothing";
+    if (std::find(stats.warnings.begin(), stats.warnings.end(), warning) == stats.warnings.end())
+      stats.warnings.push_back(warning);  // once, though each solve afresh finds it again
+  }
   std::vector<Source> sources = direct_sources();
   bool complete = gather_all([&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
     for (const Source& s : sources) s.gather(i, p, batch);
@@ -358,9 +378,24 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double
       }
   }
   patch_power.resize(mesh.patches.size());
+  // Its images sample it as finely as the light each mirror passes on calls for (far_samples).
+  std::vector<Source> images;
+  for (const auto& plane : mirrors) {
+    double flat_area = n.flat ? glm::length(n.vector_area) : 0.0;
+    dvec3 facing = flat_area > 0 ? n.vector_area / flat_area : dvec3(0.0);
+    double passed = power[s] * plane->reach(n.centroid, facing) * max_channel(plane->reflectance());
+    Shot dim = cluster_shot(shot_scene(), shooters[s], unshot, omega,
+                            {settings.samples_indirect, settings.near_factor, far_samples(passed)});
+    dim.reflected = true;
+    for (Source& image : mirror_images(shot_source(std::move(dim), s, {n.centroid, n.radius}), plane))
+      images.push_back(std::move(image));
+  }
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
-                  [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) { gather(sent, i, p, batch); }, true,
-                  [&] { absorb_delta(s, omega, Light::reflected); }))
+                  [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
+                    gather(sent, i, p, batch);
+                    for (const Source& image : images) image.gather(i, p, batch);
+                  },
+                  true, [&] { absorb_delta(s, omega, Light::reflected); }))
     return false;
   landed = measure_landing(s, sending, magnitude);
   power = summed_power();
@@ -584,6 +619,10 @@ PowerBalance Solver::power_balance() const {
   const Impl& s = *impl_;
   PowerBalance b;
   b.injected = s.injected_power;
+  // A mirror passes on its colour of what lands on it, to land again where its images light.
+  std::vector<dvec3> mirrored(s.mesh.patches.size(), dvec3(0.0));
+  for (const auto& plane : s.mirrors)
+    for (int p : plane->patches()) mirrored[p] = plane->reflectance();
   for (size_t p = 0; p < s.mesh.patches.size(); ++p) {
     const Patch& patch = s.mesh.patches[p];
     // What passes through the patch. Glass passes less at grazing angles than head on, which is
@@ -593,6 +632,7 @@ PowerBalance Solver::power_balance() const {
       std::array<float, 3> t = s.mesh.transmission[p].at(1.0);
       passes = dvec3(t[0], t[1], t[2]);
     }
+    passes += mirrored[p];
     for (int c = 0; c < 4; ++c) {
       int pt = patch.point[c];
       dvec3 absorb = dvec3(1.0) - s.mesh.reflectance[4 * p + c] - passes;

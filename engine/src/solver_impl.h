@@ -14,6 +14,7 @@
 #include "changed_rays.h"
 #include "cluster_tree.h"
 #include "db_cache.h"
+#include "mirror.h"
 #include "patch_mesh.h"
 #include "occlusion_batch.h"
 #include "parallel.h"
@@ -57,6 +58,10 @@ struct Solver::Impl {
   mutable ShotCache shot_cache;  // filled as shots are built
   ShotScene shot_scene() const { return {mesh, tree, vis.get(), &shot_cache}; }
   DbCache db_cache;              // per moved object (dynamic_update.cpp)
+  // The planar mirrors of the scene as the last injection found them (find_mirrors): each source
+  // of light is also seen as its image in each (add_images).
+  MirrorPlanes mirrors;
+  void add_images(std::vector<Source>& sources) const;  // appends the sources' images
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
   std::vector<dvec3> reflected_front, reflected_back;  // the part of it reflected light brought

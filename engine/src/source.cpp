@@ -18,23 +18,42 @@ bool sun_may_cross(const Lamp& sun, const dvec3& x, const Sphere& s) {
   return to_sun <= 0.5 * sun.angle + std::asin(s.radius / d);
 }
 
+// A receiver this close to a mirror's plane (in ray offsets) lies on it.
+constexpr double kOffMirror = 4.0;
+
 }  // namespace
 
 void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zones* zone) const {
   if (zone && std::none_of(zone->zones, zone->zones + zone->count,
                            [&](const Zone& z) { return may_reach({point.position, 0.0}, z); }))
     return;
-  switch (kind) {
-    case Kind::Lamp:
-      gather_lamp(lamp, samples, receiver, point, batch);
-      break;
-    case Kind::World:
-      gather_world(world, samples, receiver, point, batch);
-      break;
-    case Kind::Shot:
-      radiosity::gather(shot, receiver, point, batch, zone);
-      break;
-  }
+  auto take = [&](const ReceiverPoint& at) {
+    switch (kind) {
+      case Kind::Lamp:
+        gather_lamp(lamp, samples, receiver, at, batch);
+        break;
+      case Kind::World:
+        gather_world(world, samples, receiver, at, batch);
+        break;
+      case Kind::Shot:
+        radiosity::gather(shot, receiver, at, batch, zone);
+        break;
+    }
+  };
+  if (!mirror) return take(point);
+  // An image lights the receivers on its real shooter's side of the mirror that see it through the
+  // mirror's sphere; the mirror's own points and those in its plane take nothing from it.
+  const dvec3& x = point.position;
+  if (!(side * mirror->height(x) > kOffMirror * batch.visibility().epsilon())) return;
+  bool sun = kind == Kind::Lamp && lamp.type == Lamp::Type::Sun;
+  if (kind != Kind::World && (sun ? !sun_may_cross(lamp, x, mirror->bounds()) : !may_cross(x, bounds, mirror->bounds())))
+    return;
+  // The image lies beyond the walls round the receiver: a closed object's inside sees it too.
+  ReceiverPoint open = point;
+  open.enclosed_side = -1;
+  batch.set_mirror(mirror.get(), side);
+  take(open);
+  batch.set_mirror(nullptr, 1.0);
 }
 
 // A ray from a point x' within `receivers` of its centre x is a ray from x moved by x' - x: it
@@ -82,6 +101,35 @@ Source shot_source(Shot shot, int shooter, const Sphere& bounds) {
   s.shooter = shooter;
   s.bounds = bounds;
   return s;
+}
+
+std::vector<Source> mirror_images(const Source& source, const std::shared_ptr<const MirrorPlane>& plane) {
+  if (source.kind == Source::Kind::World) {
+    Source image = world_source(mirrored(source.world, *plane), source.samples);
+    image.mirror = plane;
+    Source back = image;
+    back.side = -1.0;
+    return {std::move(image), std::move(back)};
+  }
+  bool sun = source.kind == Source::Kind::Lamp && source.lamp.type == Lamp::Type::Sun;
+  // The side the light comes from: the sun's, or the shooter's centre's.
+  double h = sun ? -glm::dot(source.lamp.direction, plane->normal()) : plane->height(source.bounds.centre);
+  if (h == 0) return {};
+  Source image;
+  image.kind = source.kind;
+  image.samples = source.samples;
+  image.shooter = source.shooter;
+  image.mirror = plane;
+  image.side = h > 0 ? 1.0 : -1.0;
+  image.bounds = {plane->reflect(source.bounds.centre), source.bounds.radius};
+  if (source.kind == Source::Kind::Lamp) {
+    image.lamp = source.lamp;
+    image.lamp.position = plane->reflect(source.lamp.position);
+    image.lamp.direction = plane->reflect_direction(source.lamp.direction);
+  } else {
+    image.shot = mirrored(source.shot, *plane);
+  }
+  return {std::move(image)};
 }
 
 }  // namespace radiosity

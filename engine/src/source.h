@@ -5,8 +5,12 @@
 
 #include "bounds.h"
 #include "lights.h"
+#include "mirror.h"
 #include "occlusion_batch.h"
 #include "shot.h"
+
+#include <memory>
+#include <vector>
 
 namespace radiosity {
 
@@ -18,6 +22,10 @@ struct Source {
   int samples = 0;     // lamps and world
   int shooter = -1;    // the shooter (cluster) whose patches shoot; -1 for lamps and the world
   Sphere bounds;       // holds every finite ray end (not used by suns and the world)
+  // An image in a mirror: the mirror, and the side of it (+1 the normal's, -1 the other) its real
+  // shooter and its receivers lie on. Its rays go by way of the mirror (OcclusionBatch::set_mirror).
+  std::shared_ptr<const MirrorPlane> mirror;
+  double side = 1.0;
 
   // With `zone`, only the rays that may pass through it.
   void gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zones* zone = nullptr) const;
@@ -29,5 +37,8 @@ struct Source {
 Source lamp_source(const Lamp& lamp, int samples);
 Source world_source(WorldMap sky, int samples);
 Source shot_source(Shot shot, int shooter, const Sphere& bounds);
+// The source's images in `plane`: one on the side of the plane the source lies on (none if it lies
+// in it), the world's on both.
+std::vector<Source> mirror_images(const Source& source, const std::shared_ptr<const MirrorPlane>& plane);
 
 }  // namespace radiosity

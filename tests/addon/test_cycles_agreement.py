@@ -171,9 +171,7 @@ def test_agreement_with_cycles(addon, case):
 # ----------------------------------------------------------------------------- glass and mirrors
 SHARE = 0.1                    # our change against Cycles' when the pane or mirror turns black
 # (sample, its variant with the optic black, the optic's object and material), marks
-OPTICS = [("window_room", "window_room_opaque", "Pane"),
-          pytest.param("mirror_room", "mirror_room_black", "Mirror",
-                       marks=pytest.mark.xfail(strict=True, reason="mirrors are not simulated yet"))]
+OPTICS = [("window_room", "window_room_opaque", "Pane"), ("mirror_room", "mirror_room_black", "Mirror")]
 _optics_bakes = {}
 
 
@@ -196,7 +194,14 @@ def optics_corners(reference_name, optic, black):
     return _optics_bakes[reference_name]
 
 
-@pytest.mark.parametrize("sample, variant, optic", OPTICS)
+# Off junctions the mirror room's corners are 0.8% from Cycles' (1.1% against Cycles' corners
+# everywhere); on them, 3.3% from Cycles inside the face, about as with the mirror black (3.6%, that
+# reference shifted by Cycles' change): the room's concave corners, not the mirror.
+MIRROR_CORNERS = pytest.mark.xfail(strict=True, reason="the mirror room's corners are 2.5% from Cycles', 3.3% on "
+                                   "the room's junctions against Cycles inside the face (0.8% off them)")
+
+
+@pytest.mark.parametrize("sample, variant, optic", [OPTICS[0], pytest.param(*OPTICS[1], marks=MIRROR_CORNERS)])
 def test_optics_samples_agree_with_cycles(addon, sample, variant, optic):
     """Corners off junctions against Cycles' own, those on one against Cycles a little inside their
     face (DESIGN.md: Cycles' vertex bake is ill-posed there)."""

@@ -658,8 +658,9 @@ def test_the_engine_takes_the_lobes_and_a_lobe_change_is_a_material_change(addon
 
 
 # ----------------------------------------------------------------------------- effect plan rows
-OPTICS_ROWS = {"Transmission", "Refraction (direction kept)", "Frosted glass", "Mix factors as means", "Mirrors",
-               "Glass reflections", "Principled specular"}
+OPTICS_ROWS = {"Transmission", "Refraction (direction kept)", "Frosted glass", "Mix factors as means",
+               "Mirrors (1 plane)", "Mirrors (2 planes)", "Rough reflection as diffuse", "Curved mirrors",
+               "Mirror to mirror", "World in mirrors", "Glass reflections", "Principled specular"}
 
 
 def test_effects_name_the_materials_and_objects_that_call_for_them(addon, open_sample):
@@ -671,8 +672,9 @@ def test_effects_name_the_materials_and_objects_that_call_for_them(addon, open_s
     assert not OPTICS_ROWS - {"Transmission"} & set(rows)
     open_sample("mirror_room")
     rows = {short: (kind, detail) for kind, short, detail in effects.items(addon.export.export_scene())}
-    assert rows["Mirrors"][0] == effects.LEFT_OUT and rows["Mirrors"][1].endswith("(Mirror on Mirror)")
-    assert not OPTICS_ROWS - {"Mirrors"} & set(rows)
+    assert rows["Mirrors (1 plane)"] == (effects.SIMULATED, "planar mirrors and smooth metal passing on the light "
+                                                            "that reaches them (Mirror on Mirror)")
+    assert not OPTICS_ROWS - {"Mirrors (1 plane)"} & set(rows)
 
 
 def test_a_scene_without_glass_or_mirrors_lists_no_optics(addon, open_sample):
@@ -697,9 +699,21 @@ def test_glass_metal_and_alpha_rows_fit_the_sidebar(addon, empty_scene):
     tex.image = bpy.data.images.new("Leaf", 2, 2, alpha=True)
     tex.image.pixels.foreach_set(np.tile(np.float32([1, 1, 1, 0.5]), 4))
     leaves.node_tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
+    mirror, _ = shaded_plane("ShaderNodeBsdfGlossy", Roughness=0.0)
+    bpy.ops.mesh.primitive_plane_add(location=(0, 0, 1), rotation=(1.0, 0, 0))  # a second plane of it
+    bpy.context.object.data.materials.append(mirror)
+    bpy.ops.mesh.primitive_uv_sphere_add(location=(3, 0, 0))                      # curved
+    bpy.context.object.data.materials.append(mirror)
+    world = bpy.data.worlds.new("Sky")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.1, 0.1, 0.1, 1.0)
+    bpy.context.scene.world = world
     listed = effects.items(export.export_scene())
     rows = {short: (kind, detail) for kind, short, detail in listed}
-    assert OPTICS_ROWS <= set(rows)
+    assert OPTICS_ROWS - {"Mirrors (1 plane)"} <= set(rows)
+    assert rows["Curved mirrors"][1].endswith("(ShaderNodeBsdfGlossy on Sphere)")
+    assert rows["Mirror to mirror"][1].endswith("(ShaderNodeBsdfGlossy on Plane.003, Plane.004)")
+    assert rows["Rough reflection as diffuse"][1].endswith("(ShaderNodeBsdfPrincipled on Plane.001)")
     assert rows["Refraction (direction kept)"] == (effects.APPROXIMATED, "glass passing light on straight, not "
                                                    "bent (ShaderNodeBsdfGlass on Plane)")
     assert rows["Transmission"][1].endswith("(ShaderNodeBsdfGlass on Plane; ShaderNodeBsdfDiffuse on Plane.002)")

@@ -1,0 +1,251 @@
+"""Planar mirrors: a sharp specular plane passes on the light of the images of what shines on it,
+through its outline, times its colour (Cycles' Glossy BSDF: no Fresnel). Checked on the direct light
+(max_shots 0), where it is exact: a lamp's image adds R I cos / (pi d^2) at the floor points whose
+path to the image crosses the mirror, a sun's image R E cos / pi, the world R times the sky the wall
+hides, and an emitter's image what an emitter of R times its radiance at the image's place would
+send. A rough specular lobe reflects diffusely. Updates of scenes with mirrors are full solves."""
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from scenes import Mesh, engine  # noqa: E402
+
+RHO = 0.5
+R = 0.8
+WALL = 2.0      # the mirror stands in the plane x = WALL, facing -x, at the floor's edge
+LAMP = (0.13, -0.07, 1.0)  # off the patches' grid
+INTENSITY = 8.0
+
+
+def settings(direct_only=True):
+    s = engine.Settings.preset("default")
+    s.threads = 1
+    if direct_only:
+        s.max_shots = 0
+    return s
+
+
+def floor(scene):
+    """Object: a 4 x 4 floor at z = 0 facing up, its +x edge on the mirror's plane."""
+    m = Mesh()
+    m.add_face([(-2, -2, 0), (WALL, -2, 0), (WALL, 2, 0), (-2, 2, 0)], scene.add_material((RHO, RHO, RHO)))
+    return m.add_to(scene, refine="bilinear", patch_size=0.1)
+
+
+def mirror(scene, half=20.0, z=(0.0, 20.0), roughness=0.0, **kwargs):
+    """A mirror in the plane x = WALL facing -x, `half` wide each way from y = 0, between heights z."""
+    m = Mesh()
+    material = scene.add_material((0.0, 0.0, 0.0), specular=(R, R, R), roughness=roughness)
+    m.add_face([(WALL, half, z[0]), (WALL, -half, z[0]), (WALL, -half, z[1]), (WALL, half, z[1])], material)
+    return m.add_to(scene, **kwargs)
+
+
+def image(p):
+    return np.array([2 * WALL - p[0], p[1], p[2]])
+
+
+def lamp_term(points, lamp):
+    """I cos / (pi d^2) at floor points from a point lamp: the irradiance over pi it sends."""
+    d = np.asarray(lamp) - points
+    d2 = (d * d).sum(1)
+    return INTENSITY * d[:, 2] / np.sqrt(d2) / (math.pi * d2)
+
+
+def solved(build, direct_only=True):
+    scene = engine.Scene()
+    ids = build(scene)
+    solver = engine.Solver(scene, settings(direct_only))
+    solver.solve()
+    return solver, ids
+
+
+def floor_radiance(solver, ids):
+    positions, radiance = solver.refined(ids[0])
+    positions, radiance = np.asarray(positions).reshape(-1, 3), np.asarray(radiance).reshape(-1, 3)
+    off_wall = positions[:, 0] < WALL - 0.01  # points on the mirror's plane take nothing of it
+    return positions[off_wall], radiance[off_wall].mean(1)
+
+
+def with_lamp(**mirror_kwargs):
+    def build(scene):
+        ids = [floor(scene), mirror(scene, **mirror_kwargs)]
+        scene.add_point_light(LAMP, (INTENSITY,) * 3)
+        return ids
+    return build
+
+
+def test_a_mirror_plane_adds_the_image_lamps_light():
+    points, ours = floor_radiance(*solved(with_lamp()))
+    expected = RHO * (lamp_term(points, LAMP) + R * lamp_term(points, image(LAMP)))
+    np.testing.assert_allclose(ours, expected, rtol=1e-3)
+
+
+def test_a_square_mirror_lights_only_what_sees_the_image_through_it():
+    half, z = 0.5, (0.5, 1.5)
+    points, ours = floor_radiance(*solved(with_lamp(half=half, z=z)))
+    # Where the segment from each floor point to the image lamp crosses the mirror's plane.
+    to_image = image(LAMP) - points
+    t = (WALL - points[:, 0]) / to_image[:, 0]
+    y, height = points[:, 1] + t * to_image[:, 1], points[:, 2] + t * to_image[:, 2]
+    margin = np.minimum.reduce([half - np.abs(y), height - z[0], z[1] - height])
+    inside, outside = margin > 0.02, margin < -0.02  # clear of the outline
+    assert inside.sum() > 20 and outside.sum() > 200
+    direct = RHO * lamp_term(points, LAMP)
+    np.testing.assert_allclose(ours[outside], direct[outside], rtol=1e-3)
+    np.testing.assert_allclose(ours[inside], direct[inside] + RHO * R * lamp_term(points[inside], image(LAMP)),
+                               rtol=1e-3)
+
+
+def test_a_mirror_plane_adds_the_reflected_sun():
+    t = math.radians(30.0)
+    sun = 3.0
+
+    def build(scene):
+        ids = [floor(scene), mirror(scene)]
+        scene.add_sun_light((math.sin(t), 0.0, -math.cos(t)), (sun, sun, sun))
+        return ids
+    points, ours = floor_radiance(*solved(build))
+    np.testing.assert_allclose(ours, RHO * sun * math.cos(t) / math.pi * (1 + R), rtol=1e-3)
+
+
+def test_a_mirror_plane_shows_the_world():
+    """A uniform world: where a black wall hides the sky the mirror shows it, times R. The world is
+    sampled by the same directions either way (a fixed pattern per receiver), so with F the sampled
+    part of each floor point's view the wall fills, black = RHO L (1 - F) and mirror = RHO L (1 - F + R F)."""
+    sky = 0.3
+
+    def wall(specular):
+        def build(scene):
+            ids = [floor(scene)]
+            m = Mesh()
+            material = scene.add_material((0.0, 0.0, 0.0), specular=(specular,) * 3, roughness=0.0)
+            m.add_face([(WALL, 20, 0), (WALL, -20, 0), (WALL, -20, 20), (WALL, 20, 20)], material)
+            ids.append(m.add_to(scene))
+            scene.set_world((sky, sky, sky))
+            return ids
+        return build
+    _, mirrored = floor_radiance(*solved(wall(R)))
+    _, black = floor_radiance(*solved(wall(0.0)))
+    assert (black < 0.7 * RHO * sky).all()  # the wall hides much of the sky
+    np.testing.assert_allclose(mirrored, black + R * (RHO * sky - black), rtol=1e-4)
+
+
+EMITTER = [(0.3, 0.2, 1.2), (0.7, 0.2, 1.2), (0.7, 0.5, 1.2), (0.3, 0.5, 1.2)]  # facing down
+EMISSION = 5.0
+
+
+def emitter(scene, corners, radiance):
+    m = Mesh()
+    m.add_face(corners, scene.add_material((0.0, 0.0, 0.0), emission=(radiance,) * 3))
+    return m.add_to(scene)
+
+
+def test_an_emitters_image_sends_what_an_emitter_there_would_times_the_mirrors_colour():
+    def mirrored(scene):
+        ids = [floor(scene), mirror(scene)]
+        emitter(scene, EMITTER, EMISSION)
+        scene.add_area_light((0.0, -1.0, 1.5), (0.2, 0.0, 0.0), (0.0, 0.15, 0.0), (EMISSION,) * 3)
+        return ids
+
+    def unfolded(scene):  # no mirror: the images as real emitters of R times the radiance
+        ids = [floor(scene)]
+        emitter(scene, EMITTER, EMISSION)
+        emitter(scene, [image(c) for c in EMITTER][::-1], R * EMISSION)
+        scene.add_area_light((0.0, -1.0, 1.5), (0.2, 0.0, 0.0), (0.0, 0.15, 0.0), (EMISSION,) * 3)
+        scene.add_area_light(tuple(image((0.0, -1.0, 1.5))), (0.2, 0.0, 0.0), (0.0, 0.15, 0.0), (R * EMISSION,) * 3)
+        return ids
+    points, ours = floor_radiance(*solved(mirrored))
+    _, theirs = floor_radiance(*solved(unfolded))
+    # The same form factors of the same cells; the images' shots sample as their shooters' do,
+    # the real emitters' by clusters of their own (a far sample's error: under 0.5%).
+    np.testing.assert_allclose(ours, theirs, rtol=5e-3)
+    assert np.abs(ours / theirs - 1).mean() < 1e-3
+
+
+def test_a_mirror_does_not_show_its_own_light_again():
+    """An emitting (or diffusely reflecting) mirror's image of itself lies in its own plane: it is
+    the mirror itself, which a receiver sees once. The wall shoots in clusters with a dark shelf at
+    its foot, whose images are made (they lie off the plane) and send the shelf's light alone."""
+    def glowing_wall(specular):
+        def build(scene):
+            ids = [floor(scene)]
+            m = Mesh()
+            glow = scene.add_material((0.0, 0.0, 0.0), emission=(2.0, 2.0, 2.0), specular=(specular,) * 3, roughness=0.0)
+            m.add_face([(WALL, 2, 0.5), (WALL, -2, 0.5), (WALL, -2, 2), (WALL, 2, 2)], glow)
+            m.add_face([(WALL - 0.5, -2, 0.5), (WALL, -2, 0.5), (WALL, 2, 0.5), (WALL - 0.5, 2, 0.5)],
+                       scene.add_material((0.0, 0.0, 0.0)))
+            ids.append(m.add_to(scene, refine="bilinear", patch_size=0.25))
+            return ids
+        return build
+    mirrored, ids = solved(glowing_wall(R))
+    plain, _ = solved(glowing_wall(0.0))
+    np.testing.assert_array_equal(mirrored.refined(ids[0])[1], plain.refined(ids[0])[1])
+
+
+def test_a_rough_specular_plane_reflects_as_a_diffuse_one_of_its_colour():
+    def wall(lobes):
+        def build(scene):
+            ids = [floor(scene)]
+            m = Mesh()
+            m.add_face([(WALL, 2, 0), (WALL, -2, 0), (WALL, -2, 2), (WALL, 2, 2)], scene.add_material(**lobes))
+            ids.append(m.add_to(scene, refine="bilinear", patch_size=0.25))
+            scene.add_point_light(LAMP, (INTENSITY,) * 3)
+            return ids
+        return build
+    rough, _ = solved(wall(dict(reflectance=(0.25,) * 3, specular=(0.5,) * 3, roughness=0.3)), False)
+    diffuse, ids = solved(wall(dict(reflectance=(0.75,) * 3)), False)
+    np.testing.assert_array_equal(rough.refined(ids[0])[1], diffuse.refined(ids[0])[1])
+
+
+def test_power_balance_holds_with_a_mirror():
+    # A closed room (nothing escapes) with a mirror on a wall near the lamp: the light that lands is
+    # absorbed, still unshot, or passed on by the mirror to land again.
+    scene = engine.Scene()
+    room, glass = Mesh(), Mesh()
+    room.add_box((0.0, 0.0, 1.0), (4.0, 2.0, 2.0), scene.add_material((0.6, 0.5, 0.4)), inward=True)
+    glass.add_face([(1.99, 0.9, 0.1), (1.99, -0.9, 0.1), (1.99, -0.9, 1.9), (1.99, 0.9, 1.9)],
+                   scene.add_material((0.05, 0.05, 0.05), specular=(R, 0.7, 0.6), roughness=0.0))
+    for m in (room, glass):
+        m.add_to(scene, refine="bilinear", patch_size=0.25)
+    scene.add_point_light((1.2, 0.1, 1.1), (10.0, 10.0, 10.0))
+    s = engine.Settings.preset("draft")
+    s.threshold = 1e-5
+    solver = engine.Solver(scene, s)
+    solver.solve()
+    b = solver.power_balance()
+    assert b["transmitted"] > 0.1 * b["injected"]
+    assert abs(b["unshot"]) < 1e-3 * b["injected"]
+    assert (b["unshot"] + b["absorbed"] + b["transmitted"]) / b["injected"] == pytest.approx(1.0, abs=0.01)
+
+
+def test_updates_of_a_scene_with_a_mirror_are_full_solves():
+    def placed(x):
+        move = np.eye(4)
+        move[0, 3] = x
+        return move
+
+    def build(x, strength):
+        def scene_of(scene):
+            ids = [floor(scene), mirror(scene, half=0.5, z=(0.5, 1.5), dynamic=True, transform=placed(x))]
+            scene.add_point_light(LAMP, (strength,) * 3)
+            return ids
+        return scene_of
+    solver, ids = solved(build(0.0, INTENSITY), direct_only=False)
+    solver.set_transform(ids[1], placed(-0.5))
+    solver.set_point_light(0, LAMP, (2 * INTENSITY,) * 3)
+    stats = solver.update()
+    assert stats["restart"] == "mirrors: updates in scenes with mirrors are full solves"
+    fresh, _ = solved(build(-0.5, 2 * INTENSITY), direct_only=False)
+    np.testing.assert_array_equal(solver.refined(ids[0])[1], fresh.refined(ids[0])[1])
+    # A hidden mirror shown: the scene had none, and has one now.
+    solver, ids = solved(build(0.0, INTENSITY), direct_only=False)
+    solver.set_visible(ids[1], False)
+    assert solver.update()["restart"] == "mirrors: updates in scenes with mirrors are full solves"
+    solver.set_visible(ids[1], True)
+    assert solver.update()["restart"] == "mirrors: updates in scenes with mirrors are full solves"
+    fresh, _ = solved(build(0.0, INTENSITY), direct_only=False)
+    np.testing.assert_array_equal(solver.refined(ids[0])[1], fresh.refined(ids[0])[1])
