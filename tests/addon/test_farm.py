@@ -149,7 +149,10 @@ def test_a_worker_killed_mid_bake_has_its_chunk_run_again(addon, local_farm, one
         deadline = time.perf_counter() + 120
         while time.perf_counter() < deadline and not killed:
             done = len(addon.farm_cache.frames_done(folder, frames)) if os.path.isdir(folder) else 0
-            busy = [(pid, b) for pid, b in workers(local_farm[1]).items() if b is not None]
+            try:
+                busy = [(pid, b) for pid, b in workers(local_farm[1]).items() if b is not None]
+            except (psutil.Error, OSError):  # a chunk's Blender ended while listed: look again
+                busy = []
             # past the probe chunk (2 frames), and a chunk of the rest running
             if 3 <= done < len(frames) - 2 and busy:
                 pid, blender = busy[0]
