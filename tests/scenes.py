@@ -193,3 +193,25 @@ def mover_transforms(frame):
         t[:3, 3] = place
         out.append(t)
     return out
+
+
+def room_balance(wall_corners, wall_lobes, lamp):
+    """The power balance of a closed 4 x 2 x 2 m room (nothing escapes) holding one more face of a
+    material with `wall_lobes` (Scene.add_material's arguments), lit by a point lamp at `lamp`,
+    solved at draft down to a threshold of 1e-5: light that lands is absorbed, still unshot, or
+    passed on by the face (through it, or mirrored) to land again."""
+    scene = engine.Scene()
+    room, wall = Mesh(), Mesh()
+    room.add_box((0.0, 0.0, 1.0), (4.0, 2.0, 2.0), scene.add_material((0.6, 0.5, 0.4)), inward=True)
+    wall.add_face(wall_corners, scene.add_material(*wall_lobes[0], **wall_lobes[1]))
+    for m in (room, wall):
+        m.add_to(scene, refine="bilinear", patch_size=0.25)
+    scene.add_point_light(lamp, (10.0, 10.0, 10.0))
+    s = engine.Settings.preset("draft")
+    s.threshold = 1e-5
+    solver = engine.Solver(scene, s)
+    solver.solve()
+    b = solver.power_balance()
+    assert b["transmitted"] > 0.1 * b["injected"]
+    assert abs(b["unshot"]) < 1e-3 * b["injected"]
+    assert abs((b["unshot"] + b["absorbed"] + b["transmitted"]) / b["injected"] - 1.0) <= 0.01
