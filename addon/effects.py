@@ -190,20 +190,37 @@ def _transmission_cost(stats):
     crossings, crossed, rays = (int(stats.get(k, 0)) for k in ("pane_crossings", "rays_through_panes", "rays"))
     if not rays:
         return ""
-    many = f"{crossings / 1e6:.1f} M" if crossings >= 100_000 else f"{crossings:,}"
-    share = 100 * crossed / rays
-    share = f"{share:.0f}" if share >= 10 else f"{share:.2g}"  # a window's few rays: 0.043%, not 0%
-    return f"{many} pane crossings, {share}% of the rays" if crossed else "no ray crossed a pane"
+    return f"{_many(crossings)} pane crossings, {_share(crossed, rays)} of the rays" if crossed else "no ray crossed a pane"
 
 
-# The rows whose cost a solve's stats give: short words -> the cost's text from the stats.
-_COSTS = {"Transmission": _transmission_cost}
+def _many(n):
+    return f"{n / 1e6:.1f} M" if n >= 100_000 else f"{n:,}"
+
+
+def _share(part, whole):
+    share = 100 * part / whole
+    return f"{share:.0f}%" if share >= 10 else f"{share:.2g}%"  # a window's few rays: 0.043%, not 0%
+
+
+def _mirror_cost(stats):
+    """What light by way of mirrors cost the solve: the legs of its paths through a mirror (two a
+    path: to the mirror and on from it) and their share of its rays."""
+    legs, rays = int(stats.get("mirror_rays", 0)), int(stats.get("rays", 0))
+    return f"{_many(legs)} rays by way of mirrors, {_share(legs, rays)} of the rays" if rays else ""
+
+
+# The rows whose cost a solve's stats give, by their short words without what follows in brackets
+# ("Mirrors (2 planes)"): the cost's text from the stats.
+_COSTS = {"Transmission": _transmission_cost, "Mirrors": _mirror_cost}
 
 
 def costed(listed, stats):
     """items() after a solve: each row [kind, short, detail, cost], cost the text of what `stats` (the
     engine's solve stats) count of it, "" where they count nothing for it."""
-    return [list(row[:3]) + [_COSTS[row[1]](stats) if row[1] in _COSTS else ""] for row in listed]
+    def cost(short):
+        of = _COSTS.get(short.split(" (")[0])
+        return of(stats) if of else ""
+    return [list(row[:3]) + [cost(row[1])] for row in listed]
 
 
 def described(row):

@@ -90,6 +90,7 @@ py::dict stats_dict(const SolveStats& s) {
   d["rays"] = s.rays;
   d["pane_crossings"] = s.pane_crossings;
   d["rays_through_panes"] = s.rays_through_panes;
+  d["mirror_rays"] = s.mirror_rays;
   d["patches"] = s.patches;
   d["uniform_patches"] = s.uniform_patches;
   d["points"] = s.points;

@@ -49,6 +49,7 @@ void OcclusionBatch::push_mirrored(dvec3* into, const dvec3& origin, const dvec3
   push(into, origin, t * dir, kSegment, irradiance * mirror.reflectance());
   push(nullptr, start, onward, infinite ? INFINITY : kSegment, dvec3(0.0));
   mirror_ = &mirror;
+  mirror_rays_ += 2;
 }
 
 RADIOSITY_HOT void OcclusionBatch::flush() {

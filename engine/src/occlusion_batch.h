@@ -108,6 +108,7 @@ class OcclusionBatch {
   long long rays_traced() const { return traced_; }
   long long rays_pushed() const { return pushed_; }
   const Crossings* crossings() const { return crossings_.get(); }  // null while no ray could cross a pane
+  long long mirror_rays() const { return mirror_rays_; }  // legs of paths by way of a mirror pushed
 
  private:
   // A segment is pushed with tfar = kSegment; flush() shortens it to stop epsilon before its end.
@@ -163,6 +164,7 @@ class OcclusionBatch {
   const Coincident coincident_rays_{target_, target_patch_, zone_start_};
   unsigned count_ = 0;
   long long traced_ = 0;
+  long long mirror_rays_ = 0;
   long long pushed_ = 0;
 };
 

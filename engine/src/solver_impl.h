@@ -281,6 +281,7 @@ bool Solver::Impl::gather_all(Wanted&& wanted, MakeBatch&& batch_for, Gather&& g
   long long rays = 0;
   for (OcclusionBatch* b : pending) {
     rays += b->rays_traced();
+    stats.mirror_rays += b->mirror_rays();
     if (const Crossings* c = b->crossings())
       stats.pane_crossings += c->hits(), stats.rays_through_panes += c->rays_crossing();
   }

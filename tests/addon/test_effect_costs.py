@@ -1,12 +1,14 @@
-"""The bake's report names what light through glass cost the solve: the pane crossings its rays made
-and the share of its rays that crossed a pane, counted by the engine; a scene without panes has no
-such row and counts nothing."""
+"""The bake's report names what light through glass and off mirrors cost the solve: the pane
+crossings its rays made and the share of its rays that crossed a pane, the rays by way of mirrors
+and their share, counted by the engine; a scene without panes or mirrors has no such rows and
+counts nothing."""
 import json
 import os
 import re
 import sys
 
 import bpy
+import pytest
 
 from conftest import ROOT
 
@@ -47,3 +49,26 @@ def test_a_scene_without_panes_has_no_transmission_cost(addon, open_sample):
     assert "Transmission" not in rows
     assert all(cost == "" for _, _, _, cost in rows.values())
     assert "cost:" not in scene.radiosity.last_effects
+
+
+MIRROR_COST = re.compile(r"(?P<legs>[\d,.]+)(?P<mega> M)? rays by way of mirrors, (?P<share>[\d.]+)% of the rays")
+
+
+def test_the_report_names_what_the_mirror_cost(addon, open_sample):
+    rows = bake_draft(open_sample("mirror_room"))
+    (short, (kind, _, detail, cost)), = [(s, r) for s, r in rows.items() if s.startswith("Mirrors")]
+    assert kind == addon.effects.SIMULATED
+    found = MIRROR_COST.fullmatch(cost)
+    assert found, cost
+    legs = float(found["legs"].replace(",", "")) * (1e6 if found["mega"] else 1)
+    rays = bpy.context.scene.radiosity.last_rays
+    # Two legs a path, all counted among the solve's rays; the lamp under the ceiling and the room's
+    # walls send the mirror some of their light, not all of it.
+    share = float(found["share"]) / 100
+    assert legs == pytest.approx(rays * share, rel=0.06)
+    assert 0 < share < 1
+    assert all(c == "" for s, (_, _, _, c) in rows.items() if s != short)
+    optics_references.blacken(bpy.data.materials["Mirror"])
+    rows = bake_draft(bpy.context.scene)
+    assert not any(s.startswith("Mirrors") for s in rows)
+    assert all(c == "" for _, _, _, c in rows.values())

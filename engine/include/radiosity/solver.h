@@ -20,6 +20,8 @@ struct SolveStats {
   // Of those, hits on panes they went on through (Crossings::hits) and rays that crossed a pane:
   // what light through glass costs, which a scene without panes never counts.
   long long pane_crossings = 0, rays_through_panes = 0;
+  // Of those, the legs of paths by way of a mirror: what mirrors cost, never counted without one.
+  long long mirror_rays = 0;
   int patches = 0, points = 0, shooters = 0;
   // The patches uniform refinement would make down to the smallest the light may split them to
   // (Settings::light_refinement): patches' counterpart.
