@@ -342,8 +342,9 @@ def make_window_room_glass():
     (x0, x1, z0, z1), Y = window_room(sc)
     glass = shader_material("Pane", "ShaderNodeBsdfGlass", (0.95, 0.97, 0.95), Roughness=0.0, IOR=1.5)
     glass.node_tree.nodes["Glass BSDF"].distribution = 'SHARP'
-    half = 0.003                               # a 6 mm slab filling the hole, its faces outward
-    mesh_object("Pane", cube_verts((x0, Y - half, z0), (x1, Y + half, z1)), list(CUBE_FACES.values()), [glass])
+    # A 6 mm slab filling the hole from its inner face in the wall's plane outward, as glass sits in a
+    # frame: sides standing into the room would glow with light the glass carries along inside it.
+    mesh_object("Pane", cube_verts((x0, Y, z0), (x1, Y + 0.006, z1)), list(CUBE_FACES.values()), [glass])
     # Outside, 1.2 m from the wall, facing in and 25 degrees down through the window onto the floor. An
     # area lamp and the world only: a sun or a point lamp seen through glass is a caustic Cycles' bake
     # barely converges (DESIGN.md section 4).
