@@ -19,10 +19,13 @@ Every object uses a Diffuse BSDF or an Emission node material, so Cycles is a fa
   window_room.blend    closed 5 x 4 x 2.7 m room lit only through a 1.6 x 1.2 m window in its +Y wall:
                        a one-quad pane ("Pane", Transparent BSDF), the sun 35 degrees up shining
                        through it onto the floor, a 0.2 grey world seen through it.
+  window_room_glass.blend  the window room with a 6 mm slab of clear glass ("Pane", Glass BSDF, IOR 1.5,
+                       roughness 0) in its window, lit through it by a 2 x 1.5 m area lamp outside and
+                       the world (no sun: through glass it is a caustic Cycles barely converges).
   mirror_room.blend    closed 4 x 4 x 2.5 m room, an area lamp under the ceiling, a 1.5 x 1 m mirror
                        ("Mirror", Glossy BSDF of roughness 0) 5 mm in front of a wall, a box on the floor.
 
-The last two are the optics scenes: their pane and mirror are what Cycles compares the engine's
+The last three are the optics scenes: their panes and mirror are what Cycles compares the engine's
 transmission and mirrors on (their references raise Cycles' glossy and transmission bounces).
 """
 import math
@@ -303,28 +306,51 @@ def make_interior_room():
     save("interior_room.blend")
 
 
-def make_window_room():
-    sc = new_scene()
+def window_room(sc):
+    """The window room's shell: a closed 5 x 4 x 2.7 m room with a 1.6 x 1.2 m hole (sill 0.8 m up) in
+    its +Y wall, a 0.2 grey world and the camera. Returns the hole (x0, x1, z0, z1) and the wall's y."""
     world_colour(sc, 0.2)
     wall = diffuse("Wall", (0.75, 0.73, 0.68))
     floor = diffuse("Floor", (0.45, 0.3, 0.18))
     ceiling = diffuse("Ceiling", (0.8, 0.8, 0.8))
-    pane = shader_material("Pane", "ShaderNodeBsdfTransparent", (0.9, 0.92, 0.9))
     X, Y, Z = 2.5, 2.0, 2.7
     room("Room", (-X, -Y, 0.0), (X, Y, Z), ("-Z", "+Z", "-Y", "-X", "+X"), [wall, floor, ceiling], (1, 2, 0, 0, 0))
-    # The +Y wall around a 1.6 x 1.2 m hole (sill 0.8 m up): four quads facing -Y, into the room.
+    # The +Y wall around the hole: four quads facing -Y, into the room.
     x0, x1, z0, z1 = -0.8, 0.8, 0.8, 2.0
     xs, zs = (-X, x0, x1, X), (0.0, z0, z1, Z)
     verts = [(x, Y, z) for z in zs for x in xs]
     quads = [(i, j) for j in range(3) for i in range(3) if (i, j) != (1, 1)]
     faces = [(j * 4 + i, j * 4 + i + 1, (j + 1) * 4 + i + 1, (j + 1) * 4 + i) for i, j in quads]
     mesh_object("WindowWall", verts, faces, [wall])
+    camera((-2.3, -1.8, 1.6), (78.0, 0.0, -35.0), lens=18.0)
+    return (x0, x1, z0, z1), Y
+
+
+def make_window_room():
+    sc = new_scene()
+    (x0, x1, z0, z1), Y = window_room(sc)
+    pane = shader_material("Pane", "ShaderNodeBsdfTransparent", (0.9, 0.92, 0.9))
     mesh_object("Pane", [(x0, Y, z0), (x0, Y, z1), (x1, Y, z1), (x1, Y, z0)], [(0, 3, 2, 1)], [pane])
     # 35 degrees up, 20 degrees round from the wall's normal: the patch of sun lands on the floor
     lamp("Sun", 'SUN', (0.0, 4.0, 4.0), rotation=(math.radians(-55.0), 0.0, math.radians(20.0)), energy=3.0,
          angle=math.radians(2.0), color=(1.0, 0.95, 0.9))
-    camera((-2.3, -1.8, 1.6), (78.0, 0.0, -35.0), lens=18.0)
     save("window_room.blend")
+
+
+def make_window_room_glass():
+    sc = new_scene()
+    (x0, x1, z0, z1), Y = window_room(sc)
+    glass = shader_material("Pane", "ShaderNodeBsdfGlass", (0.95, 0.97, 0.95), Roughness=0.0, IOR=1.5)
+    glass.node_tree.nodes["Glass BSDF"].distribution = 'SHARP'
+    # A 6 mm slab filling the hole from its inner face in the wall's plane outward, as glass sits in a
+    # frame: sides standing into the room would glow with light the glass carries along inside it.
+    mesh_object("Pane", cube_verts((x0, Y, z0), (x1, Y + 0.006, z1)), list(CUBE_FACES.values()), [glass])
+    # Outside, 1.2 m from the wall, facing in and 25 degrees down through the window onto the floor. An
+    # area lamp and the world only: a sun or a point lamp seen through glass is a caustic Cycles' bake
+    # barely converges (DESIGN.md section 4).
+    lamp("WindowLamp", 'AREA', (0.0, Y + 1.2, 2.3), rotation=(math.radians(-65.0), 0.0, 0.0), energy=150.0,
+         shape='RECTANGLE', size=2.0, size_y=1.5, color=(1.0, 0.95, 0.9))
+    save("window_room_glass.blend")
 
 
 def make_mirror_room():
@@ -350,6 +376,7 @@ if __name__ == "__main__":
     only = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     for name, fn in (("cornell_box", make_cornell), ("subsurf_room", make_subsurf_room),
                      ("animated_room", make_animated_room), ("interior_room", make_interior_room),
-                     ("window_room", make_window_room), ("mirror_room", make_mirror_room)):
+                     ("window_room", make_window_room), ("window_room_glass", make_window_room_glass),
+                     ("mirror_room", make_mirror_room)):
         if not only or name in only:
             fn()

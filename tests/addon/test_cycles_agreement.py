@@ -34,12 +34,15 @@ per object and the five corners worst against the junction reference (run with -
 The default-preset bakes take 2-4 s each: only cornell_box and subsurf_room run by default;
 DR_SLOW=1 runs every scene and frame, and the high preset (12-45 s a bake).
 
-The optics samples (window_room, mirror_room) are compared at the default preset against Cycles
-with glossy and transmission bounces on (optics_references.py), over the non-emitting corners of
-everything but the pane or the mirror, at the 2% target. Their share tests check the light the pane
-or the mirror carries: each scene baked again with it black (optics_references.blacken), by us and
-by Cycles; our change must be Cycles' change within 10% of it (relative RMS of the two changes).
+The optics samples (window_room, window_room_glass, mirror_room) are compared at the default preset
+against Cycles with glossy and transmission bounces on (optics_references.py), over the non-emitting
+corners of everything but the pane or the mirror, at the 2% target, or 3% where the bake's report
+lists an effect as approximated (the glass room: refraction, its direction kept). Their share tests
+check the light the pane or the mirror carries: each scene baked again with it black
+(optics_references.blacken), by us and by Cycles; our change must be Cycles' change within 10% of it
+(relative RMS of the two changes).
 """
+import json
 import os
 import sys
 
@@ -170,16 +173,36 @@ def test_agreement_with_cycles(addon, case):
 
 # ----------------------------------------------------------------------------- glass and mirrors
 SHARE = 0.1                    # our change against Cycles' when the pane or mirror turns black
-# (sample, its variant with the optic black, the optic's object and material), marks
-OPTICS = [("window_room", "window_room_opaque", "Pane"), ("mirror_room", "mirror_room_black", "Mirror")]
+APPROXIMATED = 0.03            # the target where the bake's report lists an effect as approximated
+# (sample, its variant with the optic black, the optic's object and material)
+OPTICS = [("window_room", "window_room_opaque", "Pane"), ("window_room_glass", "window_room_glass_opaque", "Pane"),
+          ("mirror_room", "mirror_room_black", "Mirror")]
+# sample -> why its agreement test, its share test misses
+AGREEMENT_MISSES = {
+    "window_room_glass": "5.1% from Cycles: its area lamp seen through the window, through glass, a Transparent "
+                         "slab or an open hole alike, leaves the far wall's floor corners 7% under Cycles and its "
+                         "ceiling corners 5-8% over at 64 Light Samples (3.2% in all at 1,024)",
+    # Off junctions its corners are 0.8% from Cycles' (1.1% against Cycles' corners everywhere); on
+    # them, 3.3% from Cycles inside the face, about as with the mirror black (3.6%, that reference
+    # shifted by Cycles' change): the room's concave corners, not the mirror.
+    "mirror_room": "2.5% from Cycles, 3.3% on the room's junctions against Cycles inside the face (0.8% off them)"}
+SHARE_MISSES = {}
+
+
+def optics_cases(misses):
+    """OPTICS for parametrize, those in `misses` as strict xfails with the reason it gives."""
+    return [pytest.param(*case, marks=pytest.mark.xfail(strict=True, reason=misses[case[0]]))
+            if case[0] in misses else case for case in OPTICS]
+
+
 _optics_bakes = {}
 
 
 def optics_corners(reference_name, optic, black):
     """scene_corners' (our values, the reference values by kind, which lie on a junction) at the
-    non-emitting corners of every mesh but `optic`, after a default bake of the sample
-    VARIANTS[reference_name] names (its optic made black where `black`). Baked once a session: the
-    agreement and share tests share the sample's bake."""
+    non-emitting corners of every mesh but `optic`, and the kinds of effect the bake's report lists,
+    after a default bake of the sample VARIANTS[reference_name] names (its optic made black where
+    `black`). Baked once a session: the agreement and share tests share the sample's bake."""
     if reference_name not in _optics_bakes:
         sample, _ = optics_references.VARIANTS[reference_name]
         bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES, sample + ".blend"))
@@ -190,35 +213,31 @@ def optics_corners(reference_name, optic, black):
         assert bpy.ops.radiosity.bake() == {'FINISHED'}
         ref = reference.read_npz(optics_references.path_of(reference_name))
         _names, _pos, ours, refs, junction = scene_corners(scene, ref, skip=(optic,))
-        _optics_bakes[reference_name] = ours, refs, junction
+        kinds = {row[0] for row in json.loads(scene.radiosity.last_effect_items)}
+        _optics_bakes[reference_name] = ours, refs, junction, kinds
     return _optics_bakes[reference_name]
 
 
-# Off junctions the mirror room's corners are 0.8% from Cycles' (1.1% against Cycles' corners
-# everywhere); on them, 3.3% from Cycles inside the face, about as with the mirror black (3.6%, that
-# reference shifted by Cycles' change): the room's concave corners, not the mirror.
-MIRROR_CORNERS = pytest.mark.xfail(strict=True, reason="the mirror room's corners are 2.5% from Cycles', 3.3% on "
-                                   "the room's junctions against Cycles inside the face (0.8% off them)")
-
-
-@pytest.mark.parametrize("sample, variant, optic", [OPTICS[0], pytest.param(*OPTICS[1], marks=MIRROR_CORNERS)])
+@pytest.mark.parametrize("sample, variant, optic", optics_cases(AGREEMENT_MISSES))
 def test_optics_samples_agree_with_cycles(addon, sample, variant, optic):
     """Corners off junctions against Cycles' own, those on one against Cycles a little inside their
     face (DESIGN.md: Cycles' vertex bake is ill-posed there)."""
-    ours, refs, junction = optics_corners(sample, optic, False)
+    ours, refs, junction, kinds = optics_corners(sample, optic, False)
     limit = reference.limit_reference(refs["junction"], refs["inset"], junction)
     err = reference.relative_rms(ours, limit)
-    print(f"\n{sample} default: corner relative RMS {100 * err:.2f}% over {len(ours)} corners "
+    bound = APPROXIMATED if "approximated" in kinds else TARGET["DEFAULT"]
+    print(f"\n{sample} default: corner relative RMS {100 * err:.2f}% (bound {100 * bound:.0f}%) over {len(ours)} "
+          f"corners "
           f"({100 * reference.relative_rms(ours, refs['junction'], ~junction):.2f}% off junctions, "
           f"{100 * reference.relative_rms(ours, refs['inset'], junction):.2f}% on them against Cycles inside the face, "
           f"{100 * reference.relative_rms(ours, refs['junction'], junction):.2f}% against Cycles' corners)", end="")
-    assert err <= TARGET["DEFAULT"]
+    assert err <= bound
 
 
-@pytest.mark.parametrize("sample, variant, optic", OPTICS)
+@pytest.mark.parametrize("sample, variant, optic", optics_cases(SHARE_MISSES))
 def test_the_light_a_pane_or_mirror_carries_is_cycles_share(addon, sample, variant, optic):
-    ours, refs, _ = optics_corners(sample, optic, False)
-    ours_black, refs_black, _ = optics_corners(variant, optic, True)
+    ours, refs, _, _ = optics_corners(sample, optic, False)
+    ours_black, refs_black, _, _ = optics_corners(variant, optic, True)
     theirs, theirs_black = refs["junction"], refs_black["junction"]
     ours_change, cycles_change = ours - ours_black, theirs - theirs_black
     err = reference.relative_rms(ours_change, cycles_change)

@@ -1,4 +1,5 @@
-"""Cycles corner references for the optics samples (window_room, mirror_room) and their share variants.
+"""Cycles corner references for the optics samples (window_room, window_room_glass, mirror_room) and their
+share variants.
 
     blender -b --factory-startup --python tests/cycles_reference/optics_references.py [-- --corner-samples N] [--only NAME]
         [--seed S] [--inset-only]
@@ -30,6 +31,7 @@ import make_references  # noqa: E402
 OUT = os.path.join(HERE, "optics")
 # reference name -> (sample scene, the material made black or None)
 VARIANTS = {"window_room": ("window_room", None), "window_room_opaque": ("window_room", "Pane"),
+            "window_room_glass": ("window_room_glass", None), "window_room_glass_opaque": ("window_room_glass", "Pane"),
             "mirror_room": ("mirror_room", None), "mirror_room_black": ("mirror_room", "Mirror")}
 
 
@@ -48,7 +50,7 @@ def path_of(name, seed=0):
 
 
 # sample -> its pane's or mirror's object (and material) name
-OPTIC = {"window_room": "Pane", "mirror_room": "Mirror"}
+OPTIC = {"window_room": "Pane", "window_room_glass": "Pane", "mirror_room": "Mirror"}
 
 
 def run(name, samples_corner, seed=0, inset_only=False):
