@@ -11,9 +11,9 @@
 the presets not run are kept from the CSV as they are too (~3 min for draft, default and high).
 The full run takes about 30 min on 2 cores, most of it the `reference` preset.
 
-For each sample scene (animated_room at frame 1; window_room and mirror_room, the optics samples, against
-their own references, optics_references.py: Cycles with glossy and transmission bounces on, and the
-pane's or the mirror's corners left out of every error):
+For each sample scene (animated_room at frame 1; window_room, window_room_glass and mirror_room, the
+optics samples, against their own references, optics_references.py: Cycles with glossy and
+transmission bounces on, and the pane's or the mirror's corners left out of every error):
   ours    each preset through the add-on's pipeline (addon/bake.py BakeJob with the preset, then
           writeback.write_all): seconds = export + solve + write-back wall time. A solve still running
           after --max-seconds is cancelled (row kept, no error); `reference` only runs when its
@@ -64,7 +64,8 @@ import plot_png  # noqa: E402
 import reference  # noqa: E402
 import tables  # noqa: E402
 
-SCENES = {"cornell_box": None, "subsurf_room": None, "animated_room": 1, "window_room": None, "mirror_room": None}
+SCENES = {"cornell_box": None, "subsurf_room": None, "animated_room": 1, "window_room": None, "window_room_glass": None,
+          "mirror_room": None}
 PRESETS = ["draft", "default", "high", "reference"]
 SPP = [16, 64, 256, 1024, 4096]
 DENSE_SPP = [16, 64, 256, 1024]      # the dense reference itself is 4,096 spp

@@ -35,7 +35,7 @@ from conftest import load_package  # noqa: E402  (the add-on from addon/, its en
 import tables  # noqa: E402
 
 SCENES = {"cornell_box": None, "subsurf_room": None, "animated_room": 1, "interior_room": None,
-          "window_room": None, "mirror_room": None}
+          "window_room": None, "window_room_glass": None, "mirror_room": None}
 LOBES = ("transmittance", "glass", "specular")
 TOLERANCE = 0.01   # the bound on an optic-free scene's rays; the engine is meant to keep them equal
 FIELDS = ["scene", "preset", "optics", "rays", "rays_removed", "pane_crossings", "rays_through_panes",
