@@ -1,5 +1,7 @@
 #include "mirror.h"
 
+#include "visibility.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -43,17 +45,7 @@ MirrorPlane::MirrorPlane(std::shared_ptr<RTCDeviceTy> device, const PatchMesh& m
   for (int p : patches)
     for (int v : mesh.patches[p].vertex) bounds_.radius = std::max(bounds_.radius, glm::length(mesh.vertices[v] - origin_));
   outline_ = rtcNewScene(device_.get());
-  RTCGeometry geom = rtcNewGeometry(device_.get(), RTC_GEOMETRY_TYPE_QUAD);
-  auto* index = static_cast<unsigned*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned), patches.size()));
-  auto* vert = static_cast<float*>(
-      rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4 * patches.size()));
-  for (size_t i = 0; i < patches.size(); ++i)
-    for (int c = 0; c < 4; ++c) {
-      index[4 * i + c] = unsigned(4 * i + c);
-      const dvec3& v = mesh.vertices[mesh.patches[patches[i]].vertex[c]];
-      for (int k = 0; k < 3; ++k) vert[3 * (4 * i + c) + k] = float(v[k]);
-    }
+  RTCGeometry geom = patch_quads(device_.get(), mesh, patches);
   rtcCommitGeometry(geom);
   rtcAttachGeometry(outline_, geom);
   rtcReleaseGeometry(geom);
@@ -99,14 +91,7 @@ double MirrorPlane::crossing(const dvec3& origin, const dvec3& dir, double t_max
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   RTCRayHit rh;
-  rh.ray.org_x = float(origin.x), rh.ray.org_y = float(origin.y), rh.ray.org_z = float(origin.z);
-  rh.ray.dir_x = float(dir.x), rh.ray.dir_y = float(dir.y), rh.ray.dir_z = float(dir.z);
-  rh.ray.tnear = 0.0f;
-  rh.ray.tfar = std::isinf(t_max) ? INFINITY : float(t_max);
-  rh.ray.time = 0.0f;
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.ray.id = 0;
-  rh.ray.flags = 0;
+  rh.ray = make_ray(origin, dir, std::isinf(t_max) ? INFINITY : float(t_max));
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rtcIntersect1(outline_, &context, &rh);
   return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1.0 : t;  // the plane's t, exact in double
@@ -155,16 +140,10 @@ MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::ve
 
 WorldMap mirrored(const WorldMap& world, const MirrorPlane& plane) {
   if (world.texels.size() == 1) return world;
-  constexpr double kPi = 3.14159265358979323846;
   WorldMap image = world;
   for (int r = 0; r < world.height; ++r)
-    for (int c = 0; c < world.width; ++c) {
-      // The direction of texel (c, r)'s centre (WorldMap::at's layout).
-      double phi = (0.5 - (c + 0.5) / world.width) * 2 * kPi;
-      double theta = ((r + 0.5) / world.height - 0.5) * kPi;
-      dvec3 d(std::cos(theta) * std::cos(phi), std::cos(theta) * std::sin(phi), std::sin(theta));
-      image.texels[size_t(r) * world.width + c] = world.at(plane.reflect_direction(d));
-    }
+    for (int c = 0; c < world.width; ++c)
+      image.texels[size_t(r) * world.width + c] = world.at(plane.reflect_direction(world.direction(c, r)));
   return image;
 }
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 
 namespace radiosity {
@@ -16,23 +17,11 @@ namespace {
 
 constexpr double kRelativeEpsilon = 1e-5;
 
-// The object's quads, in its patches' corner order (so Embree's primitive ids count its patches).
+// The object's quads (so Embree's primitive ids count its patches); Visibility::take_panes commits them.
 RTCGeometry make_quads(RTCDevice device, const PatchMesh& mesh, const ObjectPatches& obj) {
-  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
-  int count = obj.patch_end - obj.patch_begin;
-  auto* index = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
-      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned), count));
-  // Vertices are referenced globally; copy the object's span so each geometry is self-contained.
-  int lo = INT32_MAX, hi = -1;
-  for (int p = obj.patch_begin; p < obj.patch_end; ++p)
-    for (int v : mesh.patches[p].vertex) lo = std::min(lo, v), hi = std::max(hi, v);
-  auto* vert = static_cast<float*>(rtcSetNewGeometryBuffer(
-      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), hi - lo + 1));
-  for (int v = lo; v <= hi; ++v)
-    for (int k = 0; k < 3; ++k) vert[3 * (v - lo) + k] = float(mesh.vertices[v][k]);
-  for (int p = obj.patch_begin; p < obj.patch_end; ++p)
-    for (int c = 0; c < 4; ++c) index[4 * (p - obj.patch_begin) + c] = unsigned(mesh.patches[p].vertex[c] - lo);
-  return geom;  // Visibility::take_panes commits it
+  std::vector<int> patches(obj.patch_end - obj.patch_begin);
+  std::iota(patches.begin(), patches.end(), obj.patch_begin);
+  return patch_quads(device, mesh, patches);
 }
 
 // What a trace's hits are filtered by: objects left out (occluded_without), and Coincident. Every
@@ -80,6 +69,23 @@ void trace(RTCScene scene, FilterContext& ctx, RTCRay* rays, unsigned count) {
 }
 
 }  // namespace
+
+RTCGeometry patch_quads(RTCDevice device, const PatchMesh& mesh, const std::vector<int>& patches) {
+  RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
+  auto* index = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned), patches.size()));
+  // Vertices are referenced globally; copy the patches' span so each geometry is self-contained.
+  int lo = INT32_MAX, hi = -1;
+  for (int p : patches)
+    for (int v : mesh.patches[p].vertex) lo = std::min(lo, v), hi = std::max(hi, v);
+  auto* vert = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), patches.empty() ? 0 : hi - lo + 1));
+  for (int v = lo; v <= hi; ++v)
+    for (int k = 0; k < 3; ++k) vert[3 * (v - lo) + k] = float(mesh.vertices[v][k]);
+  for (size_t i = 0; i < patches.size(); ++i)
+    for (int c = 0; c < 4; ++c) index[4 * i + c] = unsigned(mesh.patches[patches[i]].vertex[c] - lo);
+  return geom;
+}
 
 Visibility::Visibility(const PatchMesh& mesh, const std::vector<bool>& dynamic_objects,
                        const std::vector<bool>& visible)

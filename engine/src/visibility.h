@@ -36,6 +36,9 @@ inline RTCRay make_ray(const dvec3& origin, const dvec3& dir, float tfar) {
   return r;
 }
 
+// The quads of `patches` (of `mesh`), primitive i being patches[i], in its corner order; not committed.
+RTCGeometry patch_quads(RTCDevice device, const PatchMesh& mesh, const std::vector<int>& patches);
+
 // Where a segment from receiver point x (normal n) to target y (normal m) starts, and its direction
 // to where it ends: its ends lifted off their surfaces, on the sides that face each other, by
 // epsilon, plus `lift` at y. On doubles, or on Lanes for four segments at once (lanes.h).
