@@ -143,6 +143,13 @@ dvec3 WorldMap::at(const dvec3& d) const {
   return (1 - ty) * ((1 - tx) * texel(c0, r0) + tx * texel(c1, r0)) + ty * ((1 - tx) * texel(c0, r1) + tx * texel(c1, r1));
 }
 
+dvec3 WorldMap::direction(int column, int row) const {
+  constexpr double kPi = 3.14159265358979323846;
+  double phi = (0.5 - (column + 0.5) / width) * 2 * kPi;
+  double theta = ((row + 0.5) / height - 0.5) * kPi;
+  return {std::cos(theta) * std::cos(phi), std::cos(theta) * std::sin(phi), std::sin(theta)};
+}
+
 bool WorldMap::lit() const {
   for (const dvec3& t : texels)
     if (t.x + t.y + t.z > 0) return true;

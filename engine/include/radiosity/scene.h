@@ -87,6 +87,7 @@ struct WorldMap {
 
   static WorldMap uniform(const dvec3& radiance);
   dvec3 at(const dvec3& direction) const;  // `direction` of unit length
+  dvec3 direction(int column, int row) const;  // of the texel's centre, of unit length
   bool lit() const;                         // some texel sends light
   WorldMap scaled(double factor) const;
 };
