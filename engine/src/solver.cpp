@@ -380,9 +380,9 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double
   patch_power.resize(mesh.patches.size());
   // Its images sample it as finely as the light each mirror passes on calls for (far_samples).
   std::vector<Source> images;
+  double flat_area = n.flat ? glm::length(n.vector_area) : 0.0;
+  dvec3 facing = flat_area > 0 ? n.vector_area / flat_area : dvec3(0.0);  // zero: it sends every way
   for (const auto& plane : mirrors) {
-    double flat_area = n.flat ? glm::length(n.vector_area) : 0.0;
-    dvec3 facing = flat_area > 0 ? n.vector_area / flat_area : dvec3(0.0);
     double passed = power[s] * plane->reach(n.centroid, facing) * max_channel(plane->reflectance());
     Shot dim = cluster_shot(shot_scene(), shooters[s], unshot, omega,
                             {settings.samples_indirect, settings.near_factor, far_samples(passed)});
