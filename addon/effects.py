@@ -56,24 +56,20 @@ def _mirrors(sx, meshes):
     """{material index: objects} for the sharp specular materials on planar objects and on curved
     ones, and the number of mirror planes."""
     sharp = np.array([_sharp(mat) for mat in sx.materials], bool)
-    planar, curved, count = {}, {}, 0
-    for m in meshes:
-        planes = _mirror_planes(m, sharp)
-        if planes == 0:
-            continue
-        count += planes if planes <= MOST_PLANES else 0
-        for i in np.unique(m.face_materials[sharp[m.face_materials]]):
-            names = (planar if planes <= MOST_PLANES else curved).setdefault(int(i), [])
-            if m.object_name not in names:
-                names.append(m.object_name)
-    return planar, curved, count
+    planes = [_mirror_planes(m, sharp) for m in meshes]
+
+    def sharp_users(keep):
+        return _users([m for m, n in zip(meshes, planes) if keep(n)], lambda m: m.face_materials[sharp[m.face_materials]])
+    return (sharp_users(lambda n: 0 < n <= MOST_PLANES), sharp_users(lambda n: n > MOST_PLANES),
+            sum(n for n in planes if n <= MOST_PLANES))
 
 
-def _users(meshes):
-    """{material index: names of the objects in `meshes` whose faces use it}, objects once each."""
+def _users(meshes, materials_of=lambda m: m.face_materials):
+    """{material index: names of the objects in `meshes` whose faces (those `materials_of` gives the
+    materials of) use it}, objects once each."""
     users = {}
     for m in meshes:
-        for i in np.unique(m.face_materials):
+        for i in np.unique(materials_of(m)):
             names = users.setdefault(int(i), [])
             if m.object_name not in names:
                 names.append(m.object_name)
