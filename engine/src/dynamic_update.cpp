@@ -114,10 +114,8 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
   if (changes.world) validate_world(*changes.world);
   // A material whose panes pass more or less light changes what rays get through: each object with
   // a patch of it moves where it stands, its panes' light changing as a moved object's shadow does.
-  bool optics = false;
   for (const auto& [i, m] : changes.materials) {
     if (!optics_differ(scene.materials[i], m)) continue;
-    optics = true;
     for (const Patch& patch : mesh.patches)
       if (patch.material == i) changes.meshes.emplace(patch.object, scene.meshes[patch.object]);
   }
@@ -161,9 +159,8 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
     stats.restart = "mirrors: updates in scenes with mirrors are full solves";
   }
   if (!injected) {  // nothing gathered yet (or forgotten): the next solve sees the new scene
-    for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);
     for (const auto& [i, m] : changes.materials) take_material(i, m);
-    if (optics) take_optics();
+    for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);  // with their materials' panes
     for (const auto& [i, l] : changes.lamps) scene.lamps[i] = l;
     if (changes.world) scene.world = *changes.world;
     if (!mirrored) return done();

@@ -645,11 +645,6 @@ PowerBalance Solver::power_balance() const {
   return b;
 }
 
-void Solver::Impl::take_optics() {
-  for (size_t o = 0; o < mesh.objects.size(); ++o) radiosity::take_optics(mesh, int(o), scene.materials);
-  vis->set_optics(mesh);
-}
-
 std::vector<float> Solver::corner_radiance(int object, bool exact_near_direct) const {
   const ObjectPatches& obj = impl_->mesh.objects.at(object);
   if (exact_near_direct) {

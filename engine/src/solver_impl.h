@@ -193,9 +193,6 @@ struct Solver::Impl {
   bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
   void change_material(int index, const Material& material);
   void take_material(int index, const Material& material);  // the scene's and its patches', no light
-  // After a material's lobes other than reflectance and emission change: every object's
-  // Transmission (PatchMesh) and the panes Visibility traces.
-  void take_optics();
   // Moves, deforms, shows or hides the objects of `meshes` (as they are to be) together, each to
   // its refined geometry in `placed`. Returns where each was and is, in their order.
   std::vector<Zone> change_objects(const std::map<int, MeshDesc>& meshes, std::map<int, PlacedObject>& placed);

@@ -149,21 +149,6 @@ void Visibility::count_panes() {
   transmits_ = std::any_of(objects_.begin(), objects_.end(), [](const Object& o) { return o.panes[o.now] != nullptr; });
 }
 
-void Visibility::set_optics(const PatchMesh& mesh) {
-  for (size_t k = 0; k < objects_.size(); ++k) {
-    Object& o = objects_[k];
-    if (o.geometry == RTC_INVALID_GEOMETRY_ID) continue;
-    RTCGeometry quads = o.instance ? rtcGetGeometry(o.own[o.now], 0) : rtcGetGeometry(top_, o.geometry);
-    take_panes(quads, mesh, int(k), o.panes[o.now]);
-    if (o.instance) {
-      rtcCommitScene(o.own[o.now]);
-      rtcCommitGeometry(o.instance);
-    }
-  }
-  rtcCommitScene(top_);
-  count_panes();
-}
-
 void Visibility::attach(const PatchMesh& mesh, bool dynamic, bool shown) {
   Object& o = objects_.emplace_back();
   const ObjectPatches& obj = mesh.objects.at(objects_.size() - 1);

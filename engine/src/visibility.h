@@ -84,8 +84,6 @@ class Visibility {
   // Some patch lets light through (PatchMesh::transmission): only then do rays that carry light
   // need Crossings. Else no geometry has a filter, and rays cost what they cost without panes.
   bool transmits() const { return transmits_; }
-  // The patches' Transmission changed (a material's lobes): each object as it is now takes it.
-  void set_optics(const PatchMesh& mesh);
 
   // An object moved, deformed, appeared or vanished: its new geometry (from `mesh`) and visibility
   // replace the old ones, which are kept until the next move so an update can ask what the old one

@@ -211,6 +211,27 @@ def test_opaque_scenes_are_untouched(preset):
         assert hashlib.sha256(radiance.tobytes()).hexdigest() == digest
 
 
+def test_a_pane_changed_before_the_first_solve_is_the_solves_own():
+    """A material's lobes changed before anything is solved: the solve sees the new panes, bit for
+    bit as a solver made with them, whether the material let light through before or not."""
+    tau = (0.4, 0.4, 0.4)
+
+    def unsolved(lobes):
+        scene = engine.Scene()
+        floor = square(scene, 0.0, scene.add_material((RHO, RHO, RHO)))
+        square(scene, 0.5, scene.add_material((0.0, 0.0, 0.0), **lobes), half=3.0)
+        lamp(scene)
+        return engine.Solver(scene, settings()), floor
+    fresh, floor = unsolved(dict(transmittance=tau))
+    fresh.solve()
+    for before in [dict(transmittance=(0.9, 0.5, 0.2)), {}]:
+        solver, _ = unsolved(before)
+        solver.set_material(1, (0.0, 0.0, 0.0), transmittance=tau)
+        solver.update()
+        solver.solve()
+        np.testing.assert_array_equal(solver.refined(floor)[1], fresh.refined(floor)[1])
+
+
 # A Cornell box glazed across its open front, lit mostly by a point lamp in front of it, with a
 # cube inside: a fixed pane over the left half and a sliding one (dynamic) over the right half, of
 # one material. The sliding pane stays within the scene's bounds: a fresh solve of a scene of
