@@ -215,3 +215,47 @@ def room_balance(wall_corners, wall_lobes, lamp):
     assert b["transmitted"] > 0.1 * b["injected"]
     assert abs(b["unshot"]) < 1e-3 * b["injected"]
     assert abs((b["unshot"] + b["absorbed"] + b["transmitted"]) / b["injected"] - 1.0) <= 0.01
+
+
+def placed(offset):
+    """A transform moving by `offset`."""
+    move = np.eye(4)
+    move[:3, 3] = offset
+    return move
+
+
+# The accuracy an updated frame needs (DESIGN.md, section 5): its RMS against a fresh solve.
+FRAME_BOUND = 0.005
+
+
+def follow_updates(build, state, steps, settings, settled_bound):
+    """Takes one solver of `build(state)` (scene, object ids, then the objects the steps change)
+    through `steps` (name, change to the state, apply(solver, *those objects, new state)): each
+    update restarts nothing and leaves the scene within FRAME_BOUND of a fresh solve of the new
+    state, and within `settled_bound` of it once settled (solve() after it)."""
+    def solved(state):
+        scene, ids, *changed = build(state)
+        solver = engine.Solver(scene, settings)
+        solver.solve()
+        return solver, ids, changed
+
+    def values(solver, ids):
+        return np.concatenate([solver.refined(i)[1] for i in ids])
+
+    def relative_rms(got, reference):
+        return np.sqrt(np.mean((got - reference) ** 2)) / np.mean(reference)
+
+    state = dict(state)
+    solver, ids, changed = solved(state)
+    for name, change, apply in steps:
+        state.update(change)
+        apply(solver, *changed, state)
+        assert solver.update()["restart"] == "", name
+        reference = values(solved(state)[0], ids)
+        got = values(solver, ids)
+        assert np.isfinite(got).all() and got.min() >= 0, name
+        error = relative_rms(got, reference)
+        assert error <= FRAME_BOUND, f"{name}: {error:.4%} from a fresh solve as updated"
+        solver.solve()
+        error = relative_rms(values(solver, ids), reference)
+        assert error <= settled_bound, f"{name}: {error:.4%} from a fresh solve once settled"

@@ -41,10 +41,13 @@ class ChangedRays {
 
   // Of `count` rays, each carrying carried[i] into *into[i], moves to the front (in their order) the
   // ones the move changed, their irradiance signed (and scaled by what panes pass of it), and traces
-  // those against the rest of the scene: the ones that come back with tfar >= 0 count. Returns how
-  // many it moved; adds the rays it traced to `traced`.
-  unsigned keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, unsigned count, const Coincident* coincident,
-                        long long& traced) const;
+  // those against the rest of the scene: the ones that come back with tfar >= 0 and an `into` count.
+  // With `partner`, a ray whose partner[i] is not -1 is the first leg of a path by way of a mirror
+  // whose second leg (into null) is ray partner[i]: the two count as one ray, what the moved
+  // objects and the rest pass of both legs multiplied, into the first. Returns how many it moved;
+  // adds the rays it traced to `traced`.
+  unsigned keep_changed(RTCRay* rays, dvec3** into, dvec3* carried, const int* partner, unsigned count,
+                        const Coincident* coincident, long long& traced) const;
 
  private:
   const Visibility& vis_;

@@ -143,27 +143,13 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
 
   stats.shoot_residual = stats.shoot_seconds = 0.0;
   stats.restart.clear();
-  // Light by way of a mirror comes from the images of what shoots at it, which an update's changed
-  // rays do not follow: a scene with mirrors, or where one moves in or out, forgets its light and is
-  // solved afresh, changed.
-  auto has_mirror = [&](const auto& change) {
-    const std::vector<int>& faces = change.second.face_materials;
-    return std::any_of(faces.begin(), faces.end(), [&](int m) { return is_mirror(scene.materials[m]); });
-  };
-  auto makes_mirror = [&](const auto& change) { return is_mirror(change.second); };  // a material turning to one
-  bool mirrored = injected && (!mirrors.empty() || std::any_of(changes.meshes.begin(), changes.meshes.end(), has_mirror) ||
-                               std::any_of(changes.materials.begin(), changes.materials.end(), makes_mirror));
   double unshot_before = 0.0;
-  if (mirrored) {
-    restart();
-    stats.restart = "mirrors: updates in scenes with mirrors are full solves";
-  }
   if (!injected) {  // nothing gathered yet (or forgotten): the next solve sees the new scene
     for (const auto& [i, m] : changes.materials) take_material(i, m);
     for (const auto& [o, m] : changes.meshes) place(o, m, placed[o]);  // with their materials' panes
     for (const auto& [i, l] : changes.lamps) scene.lamps[i] = l;
     if (changes.world) scene.world = *changes.world;
-    if (!mirrored) return done();
+    return done();
   } else {
     double light = injected_power;
     unshot_before = total_unshot_power();
@@ -176,6 +162,13 @@ const SolveStats& Solver::Impl::update(const ProgressCallback& progress) {
       objects.push_back(o);
       for (int q = mesh.objects[o].patch_begin; q < mesh.objects[o].patch_end; ++q)
         light_changed = light_changed || mesh.emits(q);
+      // A mirror that moves (or comes, or goes) moves its images' light everywhere.
+      const std::vector<int>& faces = m.face_materials;
+      light_changed = light_changed || std::any_of(faces.begin(), faces.end(), [&](int f) {
+                        return is_mirror(scene.materials[f]);
+                      }) || std::any_of(mirrors.begin(), mirrors.end(), [&](const auto& plane) {
+                        return object_of(*plane, mesh) == o;
+                      });
     }
     // The reflected light every point's surroundings send changes with any change.
     if (light_changed || settings.exact_near_reflected) near_direct.reset();
@@ -274,7 +267,8 @@ void Solver::Impl::apply_direct_delta() {
   if (reference_power == 0) take_reference();  // the first light: as a solve starts
 }
 
-void Solver::Impl::gather_direct_change(const std::vector<Source>& sources) {
+void Solver::Impl::gather_direct_change(std::vector<Source> sources) {
+  add_images(sources);
   gather_all([](int) { return true; }, [this] { return delta_batch(); },
              [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
                for (const Source& s : sources) s.gather(i, p, batch);
@@ -434,6 +428,9 @@ struct Solver::Impl::ObjectsChange {
   // reflected light, and the near shooters' (direct and reflected).
   std::vector<Source> others_direct, others_reflected, near_before;
   double own_direct_before = 0.0;  // the direct light landing on the objects' points (landed_power)
+  // The mirrors of other objects, which stay (their images' rays change where the objects cross
+  // them, as others' do), and the objects' own before and after the move (all their images change).
+  MirrorPlanes still, theirs_before, theirs_after;
 
   bool on_object(int point) const { return on_them[point]; }
 };
@@ -478,9 +475,11 @@ std::vector<Zone> Solver::Impl::change_objects(const std::map<int, MeshDesc>& me
   if (change.objects.empty()) return zones;
   begin_change(change);
   take_back_sent(change);
+  send_by_their_mirrors(change, change.theirs_before, -1.0);
   keep_sources_before(change);
   move(change);
   send_again(change);
+  send_by_their_mirrors(change, change.theirs_after, 1.0);
   gather_changed_rays(change);
   gather_on_objects(change);
   return zones;
@@ -497,6 +496,8 @@ void Solver::Impl::begin_change(ObjectsChange& change) {
   }
   std::sort(change.near_nodes.begin(), change.near_nodes.end());
   flag_shooters(change);
+  for (const auto& plane : mirrors)
+    (change.changing[object_of(*plane, mesh)] ? change.theirs_before : change.still).push_back(plane);
 }
 
 bool Solver::Impl::shoots_from(const ObjectsChange& change, int node) const {
@@ -538,12 +539,12 @@ void Solver::Impl::take_back_sent(ObjectsChange& change) {
 }
 
 void Solver::Impl::keep_sources_before(ObjectsChange& change) {
-  change.others_direct = direct_sources(1.0, nullptr);
+  change.others_direct = direct_sources(1.0, nullptr, &change.still);
   std::vector<char> others(shooters.size());
   for (size_t s = 0; s < shooters.size(); ++s) others[s] = !change.own[s];
-  change.others_reflected = reflected_sources(1.0, &others);
-  change.near_before = direct_sources(1.0, &change.near);
-  for (Source& r : reflected_sources(1.0, &change.near)) change.near_before.push_back(std::move(r));
+  change.others_reflected = reflected_sources(1.0, &others, &change.still);
+  change.near_before = direct_sources(1.0, &change.near, &change.still);
+  for (Source& r : reflected_sources(1.0, &change.near, &change.still)) change.near_before.push_back(std::move(r));
   change.own_direct_before = direct_on_own(change);
 }
 
@@ -552,6 +553,9 @@ void Solver::Impl::move(ObjectsChange& change) {
   change.shooters_before = shooters;
   for (size_t k = 0; k < change.objects.size(); ++k) place(change.objects[k], *change.desc[k], *change.placed[k]);
   flag_shooters(change);
+  change.theirs_after = find_planes(&change.changing);
+  mirrors = change.still;
+  mirrors.insert(mirrors.end(), change.theirs_after.begin(), change.theirs_after.end());
   for (int object : change.objects)
     if (tree.object_root[object] >= 0) forget_nodes(tree.object_root[object]);
   for (size_t s = 0; s < shooters.size(); ++s)
@@ -569,8 +573,8 @@ void Solver::Impl::send_again(ObjectsChange& change) {
     }
   emit_own(change, 1.0);
   std::vector<Source> resent[2] = {{}, reflected_sources(1.0, &change.own)};  // emitted, reflected
-  std::vector<Source> near_after = direct_sources(1.0, &change.near);
-  for (Source& r : reflected_sources(1.0, &change.near)) near_after.push_back(std::move(r));
+  std::vector<Source> near_after = direct_sources(1.0, &change.near, &change.still);
+  for (Source& r : reflected_sources(1.0, &change.near, &change.still)) near_after.push_back(std::move(r));
   std::vector<Source>& near_before = change.near_before;
   for (size_t k = 0; k < near_after.size(); ++k)
     if (!same_light(near_before[k].shot, near_after[k].shot)) {
@@ -592,6 +596,27 @@ void Solver::Impl::send_again(ObjectsChange& change) {
     gather_all([&](int i) { return !change.on_object(i); }, [this] { return delta_batch(); }, gather_from(kind),
                kWhole);
     apply_delta(light);
+  }
+}
+
+// Every image in the objects' own mirrors changes with them: taken back whole before the move and
+// sent whole after it, to every point but theirs (which gather all anew). Their own shooters' images
+// go with the rest of their light (take_back_sent, send_again).
+void Solver::Impl::send_by_their_mirrors(const ObjectsChange& change, const MirrorPlanes& planes, double sign) {
+  if (planes.empty()) return;
+  std::vector<char> others(shooters.size());
+  for (size_t s = 0; s < shooters.size(); ++s) others[s] = !change.own[s];
+  for (Light light : {Light::direct, Light::reflected}) {
+    std::vector<Source> images = light == Light::direct ? direct_sources(sign, nullptr, &planes)
+                                                        : reflected_sources(sign, &others, &planes);
+    images.erase(std::remove_if(images.begin(), images.end(),
+                                [&](const Source& s) { return !s.mirror || (s.shooter >= 0 && change.own[s.shooter]); }),
+                 images.end());
+    if (images.empty()) continue;
+    gather_all([&](int i) { return !change.on_object(i); }, [this] { return delta_batch(); }, gather_from(images),
+               kWhole);
+    if (light == Light::direct) apply_direct_delta();
+    else apply_delta(Light::reflected);
   }
 }
 
@@ -656,18 +681,32 @@ void Solver::Impl::gather_on_objects(ObjectsChange& change) {
   // Reflected light as reflected_sources() would send it now, in its order (each sum takes its
   // terms as it would): a shooter neither on the objects nor near them sends what it sent before
   // the move (its shot is made of what did not move, and of what its samples saw of themselves,
-  // which the move left standing), so its shot made then serves.
+  // which the move left standing), so its shot made then serves, and its images in the mirrors
+  // that stayed; its images in the objects' mirrors are made from it.
   std::vector<char> changed(shooters.size());
   for (size_t s = 0; s < shooters.size(); ++s) changed[s] = change.own[s] || change.near[s];
   std::vector<Source> remade = reflected_sources(1.0, &changed);
-  std::vector<const Source*> kept(tree.nodes.size(), nullptr), reflected_now;
-  for (const Source& b : change.others_reflected) kept[change.shooters_before[b.shooter]] = &b;
-  auto next = remade.begin();
-  for (size_t s = 0; s < shooters.size(); ++s)
-    if (!changed[s] && kept[shooters[s]])
-      reflected_now.push_back(kept[shooters[s]]);
-    else if (changed[s] && next != remade.end() && next->shooter == int(s))
-      reflected_now.push_back(&*next++);
+  auto unchanged = [&](const Source& b) {
+    return !std::binary_search(change.near_nodes.begin(), change.near_nodes.end(), change.shooters_before[b.shooter]);
+  };
+  std::vector<Source> kept_images;
+  for (const Source& b : change.others_reflected)
+    if (!b.mirror && unchanged(b))
+      for (const auto& plane : change.theirs_after)
+        for (Source& image : mirror_images(b, plane)) kept_images.push_back(std::move(image));
+  // Each by its shooter's node and its mirror (null: the shooter itself).
+  std::map<std::pair<int, const MirrorPlane*>, const Source*> now;
+  for (const std::vector<Source>* before : {&change.others_reflected, &kept_images})
+    for (const Source& b : *before)
+      if (unchanged(b)) now[{change.shooters_before[b.shooter], b.mirror.get()}] = &b;
+  for (const Source& r : remade) now[{shooters[r.shooter], r.mirror.get()}] = &r;
+  std::vector<const Source*> reflected_now;
+  auto take = [&](const MirrorPlane* mirror) {
+    for (int node : shooters)
+      if (auto it = now.find({node, mirror}); it != now.end()) reflected_now.push_back(it->second);
+  };
+  take(nullptr);
+  for (const auto& plane : mirrors) take(plane.get());
   gather_all([&](int i) { return change.on_object(i); }, [this] { return delta_batch(); },
              gather_from(reflected_now), kWhole);
   for (int object : change.objects) {

@@ -39,7 +39,6 @@ MirrorPlane::MirrorPlane(std::shared_ptr<RTCDeviceTy> device, const PatchMesh& m
     centre += patch.area * patch.centre, normal += patch.area * patch.normal, area += patch.area;
   }
   origin_ = centre / area;
-  area_ = area;
   normal_ = glm::normalize(normal);
   bounds_ = {origin_, 0.0};
   for (int p : patches)
@@ -71,15 +70,6 @@ Symmetric3 MirrorPlane::reflect(const Symmetric3& s) const {
   return r;
 }
 
-double MirrorPlane::reach(const dvec3& centre, const dvec3& normal) const {
-  dvec3 d = origin_ - centre;
-  double d2 = glm::dot(d, d);
-  double cos_mirror = std::fabs(glm::dot(d, normal_)) / std::sqrt(d2);
-  double cos_shooter = normal == dvec3(0.0) ? 1.0 : std::fabs(glm::dot(d, normal)) / std::sqrt(d2);
-  constexpr double kPi = 3.14159265358979323846;
-  return area_ * cos_mirror * cos_shooter / (kPi * d2 + area_);
-}
-
 double MirrorPlane::crossing(const dvec3& origin, const dvec3& dir, double t_max) const {
   // The plane first, in double: most rays that miss the mirror miss its sphere.
   double along = glm::dot(dir, normal_);
@@ -97,12 +87,15 @@ double MirrorPlane::crossing(const dvec3& origin, const dvec3& dir, double t_max
   return rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? -1.0 : t;  // the plane's t, exact in double
 }
 
-MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::vector<std::string>& curved) {
+int object_of(const MirrorPlane& plane, const PatchMesh& mesh) { return mesh.patches[plane.patches()[0]].object; }
+
+MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::vector<std::string>& curved,
+                          const std::vector<char>* only) {
   MirrorPlanes planes;
   std::shared_ptr<RTCDeviceTy> device;
   double same_offset = kSameOffset * mesh.diagonal;
   for (size_t o = 0; o < mesh.objects.size(); ++o) {
-    if (!scene.meshes[o].visible) continue;
+    if (!scene.meshes[o].visible || (only && !(*only)[o])) continue;
     const ObjectPatches& obj = mesh.objects[o];
     // Per material, its patches' planes: a normal, an offset and the patches.
     struct Group {

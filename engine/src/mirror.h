@@ -42,9 +42,6 @@ class MirrorPlane {
   const dvec3& reflectance() const { return reflectance_; }
   const Sphere& bounds() const { return bounds_; }
   const std::vector<int>& patches() const { return patches_; }
-  // About the part of the light sent from `centre` (a shooter facing `normal`, either side; zero:
-  // every way) that reaches the mirror: its disc's form factor.
-  double reach(const dvec3& centre, const dvec3& normal) const;
   double height(const dvec3& p) const { return glm::dot(p - origin_, normal_); }
   dvec3 reflect(const dvec3& p) const { return p - 2.0 * height(p) * normal_; }
   dvec3 reflect_direction(const dvec3& d) const { return d - 2.0 * glm::dot(d, normal_) * normal_; }
@@ -56,16 +53,18 @@ class MirrorPlane {
   std::shared_ptr<RTCDeviceTy> device_;  // first: the outline is released before it
   RTCScene outline_ = nullptr;            // the plane's patches alone
   dvec3 normal_, origin_, reflectance_;
-  double area_ = 0.0;
   std::vector<int> patches_;
   Sphere bounds_;
 };
 
 using MirrorPlanes = std::vector<std::shared_ptr<const MirrorPlane>>;
 
-// The mirror planes of the visible objects of `scene`; `curved` names the objects whose sharp
-// specular patches form no few planes (left out as mirrors).
-MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::vector<std::string>& curved);
+// The mirror planes of the visible objects of `scene` (those `only` marks, if given); `curved`
+// names the objects whose sharp specular patches form no few planes (left out as mirrors).
+MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::vector<std::string>& curved,
+                          const std::vector<char>* only = nullptr);
+// The object whose patches make the plane.
+int object_of(const MirrorPlane& plane, const PatchMesh& mesh);
 
 // The shot as the plane shows it: positions reflected, each element and cell turned to face the way
 // its image sends (the reflection reverses the corners' winding, so its sides swap), and nothing a

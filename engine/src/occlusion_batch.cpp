@@ -32,7 +32,6 @@ void OcclusionBatch::through(const RayStart& from, const RayEnd& to, bool front,
 
 void OcclusionBatch::push_mirrored(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar,
                                    const dvec3& irradiance) {
-  if (changed_) return;
   const MirrorPlane& mirror = *mirror_;
   bool infinite = std::isinf(tfar);
   double t = mirror.crossing(origin, dir, infinite ? INFINITY : 1.0);
@@ -42,13 +41,16 @@ void OcclusionBatch::push_mirrored(dvec3* into, const dvec3& origin, const dvec3
   // (the image end reflected back: lifted off its surface as the image end was) or to infinity.
   dvec3 start = p + (mirror_side_ * vis_.epsilon()) * mirror.normal();
   dvec3 onward = infinite ? mirror.reflect_direction(dir) : mirror.reflect(origin + dir) - start;
+  float onward_far = infinite ? INFINITY : kSegment;
+  pushed_ += 2;
+  if (changed_ && !changed_->may_have_changed(origin, t * dir, kSegment) &&
+      !changed_->may_have_changed(start, onward, onward_far))
+    return;
   if (count_ + 2 > kCapacity) flush();  // both legs in one stream
-  mirror_ = nullptr;
   partner_[count_] = int(count_) + 1;
   paired_ = true;
-  push(into, origin, t * dir, kSegment, irradiance * mirror.reflectance());
-  push(nullptr, start, onward, infinite ? INFINITY : kSegment, dvec3(0.0));
-  mirror_ = &mirror;
+  append(into, origin, t * dir, kSegment, irradiance * mirror.reflectance());
+  append(nullptr, start, onward, onward_far, dvec3(0.0));
   mirror_rays_ += 2;
 }
 
@@ -79,13 +81,16 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
   for (; i < count_; ++i) shorten(rays_[i]);
   unsigned pushed = count_;
   if (changed_) {
-    count_ = changed_->keep_changed(rays_, into_, carried_, count_, coincident(), traced_);
+    count_ = changed_->keep_changed(rays_, into_, carried_, paired_ ? partner_ : nullptr, count_, coincident(), traced_);
   } else {
     if (vis_.transmits() && !crossings_) crossings_ = std::make_unique<Crossings>(kCapacity);
     vis_.occluded(rays_, count_, coincident(), crossings_.get());
     traced_ += count_;
   }
-  if (paired_) {
+  if (changed_) {  // keep_changed took each path's two legs as one, into its first
+    for (unsigned i = 0; i < count_; ++i)
+      if (into_[i] && rays_[i].tfar >= 0) *into_[i] += carried_[i];
+  } else if (paired_) {
     double eps = vis_.epsilon();
     auto through = [&](unsigned i) { return crossings_ ? crossings_->through(rays_[i], eps) : dvec3(1.0); };
     for (unsigned i = 0; i < count_; ++i) {
@@ -94,8 +99,6 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
       if (j < 0) *into_[i] += carried_[i] * through(i);
       else if (rays_[j].tfar >= 0) *into_[i] += carried_[i] * through(i) * through(j);
     }
-    std::fill(partner_, partner_ + count_, -1);
-    paired_ = false;
   } else if (!crossings_) {
     for (unsigned i = 0; i < count_; ++i)
       if (rays_[i].tfar >= 0) *into_[i] += carried_[i];
@@ -105,6 +108,7 @@ RADIOSITY_HOT void OcclusionBatch::flush() {
       if (rays_[i].tfar >= 0) *into_[i] += carried_[i] * crossings_->through(rays_[i], eps);
   }
   count_ = 0;
+  if (paired_) std::fill(partner_, partner_ + pushed, -1), paired_ = false;
   if (changed_)  // keep_changed moved rays to other slots: each gets its slot's id back
     for (unsigned k = 0; k < pushed; ++k) rays_[k].id = k;
   if (coincident_) std::fill(target_, target_ + pushed, -1), coincident_ = false;

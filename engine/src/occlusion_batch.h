@@ -100,8 +100,8 @@ class OcclusionBatch {
   // Rays pushed from now on aim at images in `mirror` (null: none), whose receivers lie on `side` of
   // it (+1 its normal's): each goes from the receiver to where it crosses the mirror's outline, and
   // on from there to the real point (or along the reflected direction), and carries the light
-  // times the mirror's colour. Rays that miss the outline carry nothing. Not with ChangedRays: an
-  // update of a scene with mirrors is a solve (dynamic_update.cpp).
+  // times the mirror's colour. Rays that miss the outline carry nothing. With ChangedRays, a path
+  // counts if what the moved objects pass of its two legs together changed.
   void set_mirror(const MirrorPlane* mirror, double side) { mirror_ = mirror, mirror_side_ = side; }
   void flush();
   const Visibility& visibility() const { return vis_; }
@@ -124,6 +124,11 @@ class OcclusionBatch {
     if (mirror_) return push_mirrored(into, origin, dir, tfar, irradiance);
     ++pushed_;
     if (changed_ && !changed_->may_have_changed(origin, dir, tfar)) return;
+    append(into, origin, dir, tfar, irradiance, under_patch, zone_start);
+  }
+  // push() without the count or the question whether the ray may have changed.
+  __attribute__((always_inline)) void append(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar,
+                                             const dvec3& irradiance, int under_patch = -1, float zone_start = 0.0f) {
     if (under_patch >= 0) {
       target_[count_] = vis_.object_of_patch(under_patch);
       target_patch_[count_] = vis_.lies_on_own(under_patch) ? under_patch : -1;
@@ -134,7 +139,8 @@ class OcclusionBatch {
     carried_[count_] = irradiance;
     if (++count_ == kCapacity) flush();
   }
-  // push() while a mirror is set: the two legs, the second linked to the first by partner_.
+  // push() while a mirror is set: the two legs, the second linked to the first by partner_; with
+  // ChangedRays, both or neither, as either may have changed.
   void push_mirrored(dvec3* into, const dvec3& origin, const dvec3& dir, float tfar, const dvec3& irradiance);
   const Coincident* coincident() const { return coincident_ ? &coincident_rays_ : nullptr; }
 

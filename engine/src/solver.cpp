@@ -17,7 +17,6 @@ namespace radiosity {
 namespace {
 
 double abs_sum(const dvec3& v) { return std::fabs(v.x) + std::fabs(v.y) + std::fabs(v.z); }
-double max_channel(const dvec3& v) { return std::max({v.x, v.y, v.z}); }
 // A patch's unshot radiance times its area, over its corners, on one side (0 front, 1 back).
 double unshot_power(const CornerUnshot& unshot, double area, int side) {
   double sum = 0.0;
@@ -201,7 +200,8 @@ std::vector<Source> Solver::Impl::patch_sources(const std::vector<CornerUnshot>&
 
 // Emission itself is never unshot: every emitter's uniform radiance goes through the same dense
 // shot, and only reflected light is shot coarser, so a furnace still has the uniform solution.
-std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector<char>* only) const {
+std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector<char>* only,
+                                                  const MirrorPlanes* planes) const {
   std::vector<Source> out;
   if (!only) {
     for (Lamp l : scene.lamps) {
@@ -218,22 +218,35 @@ std::vector<Source> Solver::Impl::direct_sources(double scale, const std::vector
       emission[p][2 * c] = emission[p][2 * c + 1] = sends ? mesh.emission[4 * p + c] : dvec3(0.0);
   }
   for (Source& s : patch_sources(emission, false, settings.samples_direct, scale, only)) out.push_back(std::move(s));
-  add_images(out);
+  add_images(out, planes);
   return out;
 }
 
-std::vector<Source> Solver::Impl::reflected_sources(double scale, const std::vector<char>* only) const {
+std::vector<Source> Solver::Impl::reflected_sources(double scale, const std::vector<char>* only,
+                                                     const MirrorPlanes* planes) const {
   std::vector<Source> out = patch_sources(shot, true, settings.samples_indirect, scale, only);
-  add_images(out);
+  add_images(out, planes);
   return out;
 }
 
 // One mirror bounce a path: images are not mirrored again.
-void Solver::Impl::add_images(std::vector<Source>& sources) const {
+void Solver::Impl::add_images(std::vector<Source>& sources, const MirrorPlanes* planes) const {
   size_t real = sources.size();
-  for (const auto& plane : mirrors)
+  for (const auto& plane : planes ? *planes : mirrors)
     for (size_t k = 0; k < real; ++k)
       for (Source& image : mirror_images(sources[k], plane)) sources.push_back(std::move(image));
+}
+
+MirrorPlanes Solver::Impl::find_planes(const std::vector<char>* only) {
+  std::vector<std::string> curved;
+  MirrorPlanes planes = find_mirrors(mesh, scene, curved, only);
+  for (const std::string& name : curved) {
+    std::string warning = "object '" + name + "': its mirror is curved (sharp specular faces in more than " +
+                          std::to_string(kMostPlanes) + " planes), and reflects nothing";
+    if (std::find(stats.warnings.begin(), stats.warnings.end(), warning) == stats.warnings.end())
+      stats.warnings.push_back(warning);  // once, though each solve afresh finds it again
+  }
+  return planes;
 }
 
 double Solver::Impl::landed_power() const {
@@ -246,14 +259,7 @@ double Solver::Impl::landed_power() const {
 
 // Direct light at full sample density; what lands becomes unshot radiance.
 bool Solver::Impl::inject() {
-  std::vector<std::string> curved;
-  mirrors = find_mirrors(mesh, scene, curved);
-  for (const std::string& name : curved) {
-    std::string warning = "object '" + name + "': its mirror is curved (sharp specular faces in more than " +
-                          std::to_string(kMostPlanes) + " planes), and reflects nothing";
-    if (std::find(stats.warnings.begin(), stats.warnings.end(), warning) == stats.warnings.end())
-      stats.warnings.push_back(warning);  // once, though each solve afresh finds it again
-  }
+  mirrors = find_planes();
   std::vector<Source> sources = direct_sources();
   bool complete = gather_all([&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
     for (const Source& s : sources) s.gather(i, p, batch);
@@ -378,17 +384,13 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double
       }
   }
   patch_power.resize(mesh.patches.size());
-  // Its images sample it as finely as the light each mirror passes on calls for (far_samples).
+  // Its images, sampled as it is: a fresh solve then sends by way of a mirror what an update of
+  // that mirror takes back and sends again.
   std::vector<Source> images;
-  double flat_area = n.flat ? glm::length(n.vector_area) : 0.0;
-  dvec3 facing = flat_area > 0 ? n.vector_area / flat_area : dvec3(0.0);  // zero: it sends every way
-  for (const auto& plane : mirrors) {
-    double passed = power[s] * plane->reach(n.centroid, facing) * max_channel(plane->reflectance());
-    Shot dim = cluster_shot(shot_scene(), shooters[s], unshot, omega,
-                            {settings.samples_indirect, settings.near_factor, far_samples(passed)});
-    dim.reflected = true;
-    for (Source& image : mirror_images(shot_source(std::move(dim), s, {n.centroid, n.radius}), plane))
-      images.push_back(std::move(image));
+  if (!mirrors.empty()) {
+    images.push_back(shot_source(sent, s, {n.centroid, n.radius}));
+    add_images(images);
+    images.erase(images.begin());
   }
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {

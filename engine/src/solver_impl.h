@@ -61,7 +61,10 @@ struct Solver::Impl {
   // The planar mirrors of the scene as the last injection found them (find_mirrors): each source
   // of light is also seen as its image in each (add_images).
   MirrorPlanes mirrors;
-  void add_images(std::vector<Source>& sources) const;  // appends the sources' images
+  // Appends the sources' images in `planes` (null: in every mirror).
+  void add_images(std::vector<Source>& sources, const MirrorPlanes* planes = nullptr) const;
+  // The mirror planes of the visible objects `only` marks (null: all), warning of curved ones.
+  MirrorPlanes find_planes(const std::vector<char>* only = nullptr);
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
   std::vector<dvec3> reflected_front, reflected_back;  // the part of it reflected light brought
@@ -152,11 +155,13 @@ struct Solver::Impl {
   void add_direct_power(double change);  // the residual's scale follows the direct light that lands
 
   // Sources of a gather, `scale` times their strength: everything, or only the shooters `only`
-  // marks (one flag per shooter).
+  // marks (one flag per shooter); and their images in `planes` (null: every mirror).
   // Direct: lamps and the world (not with `only`) and emitting patches, at samples_direct.
-  std::vector<Source> direct_sources(double scale = 1.0, const std::vector<char>* only = nullptr) const;
+  std::vector<Source> direct_sources(double scale = 1.0, const std::vector<char>* only = nullptr,
+                                     const MirrorPlanes* planes = nullptr) const;
   // Reflected: what each shooter has sent so far (`shot`), through the geometry as it is now.
-  std::vector<Source> reflected_sources(double scale = 1.0, const std::vector<char>* only = nullptr) const;
+  std::vector<Source> reflected_sources(double scale = 1.0, const std::vector<char>* only = nullptr,
+                                        const MirrorPlanes* planes = nullptr) const;
   // Shots of per-patch radiance `radiance` (emitted, or `reflected`) from the shooters where it is not
   // zero; a distant receiver takes `far_samples` of each (cluster_shot).
   std::vector<Source> patch_sources(const std::vector<CornerUnshot>& radiance, bool reflected, int samples,
@@ -187,7 +192,7 @@ struct Solver::Impl {
   const SolveStats& update(const ProgressCallback& progress);
   void add(const SceneDesc& more);  // Solver::add
   void restart();  // forgets all light gathered and shot: the next solve() starts from the lamps
-  void gather_direct_change(const std::vector<Source>& sources);  // everywhere, then applied
+  void gather_direct_change(std::vector<Source> sources);  // and their images, everywhere, then applied
   void change_world(const WorldMap& world);
   void change_lamp(int index, const Lamp& lamp);
   bool scale_sole_lamp(int index, const Lamp& lamp);  // change_lamp's exact shortcut; false if it does not hold
@@ -201,8 +206,11 @@ struct Solver::Impl {
   void begin_change(ObjectsChange& change);         // the shooters near where the objects were and will be
   void take_back_sent(ObjectsChange& change);       // what their shooters sent, from everywhere else
   void keep_sources_before(ObjectsChange& change);  // every other source as it shoots before the move
-  void move(ObjectsChange& change);                 // their geometry, and the shots' caches near it
+  void move(ObjectsChange& change);                 // their geometry and mirrors, and the shots' caches near it
   void send_again(ObjectsChange& change);           // their shooters' light and the near ones' change
+  // Everything but their shooters, by way of their mirrors (before the move, after it): `sign` 1 to
+  // send, -1 to take back.
+  void send_by_their_mirrors(const ObjectsChange& change, const MirrorPlanes& planes, double sign);
   void gather_changed_rays(ObjectsChange& change);  // the rest: only the rays the move changed
   void gather_on_objects(ObjectsChange& change);    // their own points: all their light anew
   bool shoots_from(const ObjectsChange& change, int node) const;  // the cluster node's patches are theirs

@@ -21,12 +21,20 @@ bool sun_may_cross(const Lamp& sun, const dvec3& x, const Sphere& s) {
 // A receiver this close to a mirror's plane (in ray offsets) lies on it.
 constexpr double kOffMirror = 4.0;
 
+// A path by way of a mirror, unfolded, is the straight ray from the receiver to the image: its
+// first leg is the ray's part up to the mirror, its second the reflection of the rest. So the path
+// passes through a zone only where the ray passes through the zone or its reflection.
+Zone reflected(const Zone& zone, const MirrorPlane& mirror) {
+  return {{mirror.reflect(zone.before.centre), zone.before.radius}, {mirror.reflect(zone.after.centre), zone.after.radius}};
+}
+
 }  // namespace
 
 void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zones* zone) const {
   if (zone && std::none_of(zone->zones, zone->zones + zone->count,
                            [&](const Zone& z) { return may_reach({point.position, 0.0}, z); }))
     return;
+  const Zones* cells_zone = zone;  // what a shot's cells are asked about
   auto take = [&](const ReceiverPoint& at) {
     switch (kind) {
       case Kind::Lamp:
@@ -36,7 +44,7 @@ void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& ba
         gather_world(world, samples, receiver, at, batch);
         break;
       case Kind::Shot:
-        radiosity::gather(shot, receiver, at, batch, zone);
+        radiosity::gather(shot, receiver, at, batch, cells_zone);
         break;
     }
   };
@@ -51,6 +59,15 @@ void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& ba
   // The image lies beyond the walls round the receiver: a closed object's inside sees it too.
   ReceiverPoint open = point;
   open.enclosed_side = -1;
+  // The cells are images: their unfolded rays pass through the zones or the zones' reflections.
+  thread_local std::vector<Zone> unfolded;
+  Zones unfolded_zones;
+  if (zone) {
+    unfolded.assign(zone->zones, zone->zones + zone->count);
+    for (int k = 0; k < zone->count; ++k) unfolded.push_back(reflected(zone->zones[k], *mirror));
+    unfolded_zones = {unfolded.data(), int(unfolded.size())};
+    cells_zone = &unfolded_zones;
+  }
   batch.set_mirror(mirror.get(), side);
   take(open);
   batch.set_mirror(nullptr, 1.0);
@@ -61,6 +78,11 @@ void Source::gather(int receiver, const ReceiverPoint& point, OcclusionBatch& ba
 // radius, to a target grown as much.
 bool Source::may_reach(const Sphere& receivers, const Zone& zone) const {
   if (kind == Kind::World) return true;  // rays leave every point in every direction
+  if (mirror) return unfolded_may_reach(receivers, zone) || unfolded_may_reach(receivers, reflected(zone, *mirror));
+  return unfolded_may_reach(receivers, zone);
+}
+
+bool Source::unfolded_may_reach(const Sphere& receivers, const Zone& zone) const {
   const dvec3& x = receivers.centre;
   double grow = receivers.radius;
   // Asked about each receiving point (grow 0) of each pair a gather takes: the zone as it is, whose

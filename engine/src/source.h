@@ -31,6 +31,10 @@ struct Source {
   void gather(int receiver, const ReceiverPoint& point, OcclusionBatch& batch, const Zones* zone = nullptr) const;
   // Whether some of its rays to a point within `receivers` may pass through `zone`.
   bool may_reach(const Sphere& receivers, const Zone& zone) const;
+
+ private:
+  // The same for its rays as straight lines (an image's, unfolded: the mirror left out).
+  bool unfolded_may_reach(const Sphere& receivers, const Zone& zone) const;
 };
 
 // `lamp` in the patch mesh's frame; rectangle and disc lamps become shots.

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from scenes import Mesh, cornell_box, cube_positions, engine, room_balance  # noqa: E402
+from scenes import Mesh, cornell_box, cube_positions, engine, follow_updates, placed, room_balance  # noqa: E402
 
 RHO = 0.5
 
@@ -263,12 +263,6 @@ def glazed_box(state, patch_size=0.35):
     return scene, ids + [cube_id] + panes, cube_id, panes[1]
 
 
-def placed(offset):
-    move = np.eye(4)
-    move[:3, 3] = offset
-    return move
-
-
 def pane_material(s, state):
     s.set_material(PANE_MATERIAL, state["pane_rho"], **state["pane_lobes"])
 
@@ -296,9 +290,6 @@ GLAZED_STEPS = [
      lambda s, c, p, st: (s.set_transform(c, placed(st["cube"])), slide(s, p, st))),
 ]
 
-FRAME_BOUND = 0.005  # DESIGN.md, section 5: an updated frame against a fresh solve
-
-
 @pytest.mark.parametrize("preset, threshold, settled_bound", [
     ("default", None, 0.01),
     # Converged tightly, an update and a fresh solve agree far closer.
@@ -311,29 +302,4 @@ def test_updates_with_panes_match_a_fresh_solve(preset, threshold, settled_bound
     s = engine.Settings.preset(preset)
     if threshold:
         s.threshold = threshold
-    state = dict(GLAZED_STATE)
-
-    def solved(state):
-        scene, ids, cube, pane = glazed_box(state)
-        solver = engine.Solver(scene, s)
-        solver.solve()
-        return solver, ids, cube, pane
-
-    def values(solver, ids):
-        return np.concatenate([solver.refined(i)[1] for i in ids])
-
-    solver, ids, cube, pane = solved(state)
-    for name, change, apply in GLAZED_STEPS:
-        state.update(change)
-        apply(solver, cube, pane, state)
-        stats = solver.update()
-        assert stats["restart"] == "", name
-        fresh, _, _, _ = solved(state)
-        reference = values(fresh, ids)
-        got = values(solver, ids)
-        assert np.isfinite(got).all() and got.min() >= 0, name
-        error = np.sqrt(np.mean((got - reference) ** 2)) / np.mean(reference)
-        assert error <= FRAME_BOUND, f"{name}: {error:.4%} from a fresh solve as updated"
-        solver.solve()
-        error = np.sqrt(np.mean((values(solver, ids) - reference) ** 2)) / np.mean(reference)
-        assert error <= settled_bound, f"{name}: {error:.4%} from a fresh solve once settled"
+    follow_updates(glazed_box, GLAZED_STATE, GLAZED_STEPS, s, settled_bound)
