@@ -344,6 +344,33 @@ def test_edits_update_and_match_fresh_bake(addon):
     assert err < BOUND
 
 
+def test_edits_in_a_room_with_a_mirror_are_incremental(addon):
+    """The box moves in front of the mirror, the mirror slides along its wall and changes colour:
+    each an update that restarts nothing and changes the colours, and the result is a fresh bake's
+    within BOUND."""
+    live = addon.live_update
+    scene = open_blend("mirror_room")
+    assert bpy.ops.radiosity.bake() == {'FINISHED'}
+    scene.radiosity.live_update = True
+    glossy = bpy.data.materials["Mirror"].node_tree.nodes["Glossy BSDF"].inputs["Color"]
+    steps = [("box", lambda: setattr(scene.objects["Box"].location, "x", 0.2)),
+             ("mirror", lambda: setattr(scene.objects["Mirror"].location, "y", 0.5)),
+             ("colour", lambda: setattr(glossy, "default_value", (0.9, 0.6, 0.3, 1.0)))]
+    before = read(scene)
+    for name, change in steps:
+        change()
+        bpy.context.view_layer.update()
+        info = live.last_sync[scene.name]
+        assert info["mode"] == "incremental" and info["restart"] is None, (name, info)
+        now = read(scene)
+        check_finite(now)
+        assert changed(now, before), name
+        before = now
+    err = relative_rms(stacked(before), stacked(fresh_bake(scene)))
+    print(f"box + mirror + its colour vs fresh bake: {100 * err:.3f}% RMS")
+    assert err < BOUND
+
+
 def test_viewport_edits_run_in_a_worker_and_settle_when_they_stop(addon, monkeypatch):
     """An edit from the UI (the depsgraph handler's timer, _flush) never waits for the engine: its
     update runs in a worker thread with a frame's time of shooting (none here), as playback's do.
