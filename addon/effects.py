@@ -20,7 +20,8 @@ def _both_sides(m):
 
 SIMULATED, APPROXIMATED, LEFT_OUT = "simulated", "approximated", "left out"
 # As the engine (mirror.h): a specular lobe at most this rough is a mirror, rougher ones reflect
-# diffusely; an object whose mirror faces lie in more planes than MOST_PLANES is curved (no mirror).
+# diffusely; an object whose mirror faces lie in more planes than MOST_PLANES is curved (no mirror
+# planes: its sharp lobe reflects diffusely too).
 MIRROR_ROUGHNESS = 0.05
 MOST_PLANES = 6
 
@@ -113,7 +114,8 @@ def _optics(sx, users, meshes):
     sky = np.max(np.asarray(sx.world, np.float64)) > 0
     rows[1:1] = [(SIMULATED, f"Mirrors ({planes} plane{'s' if planes > 1 else ''})",
                   "planar mirrors and smooth metal passing on the light that reaches them", planar, _sharp)]
-    rows += [(LEFT_OUT, "Curved mirrors", "smooth reflection off curved surfaces", curved, _sharp),
+    rows += [(APPROXIMATED, "Curved mirrors", "smooth reflection off curved surfaces spread as diffuse light",
+              curved, _sharp),
              (LEFT_OUT, "Mirror to mirror", "light between mirrors past one mirror bounce",
               planar if planes > 1 else {}, _sharp),
              (APPROXIMATED, "World in mirrors", "world light by way of mirrors, sampled as the world is (noisy in "

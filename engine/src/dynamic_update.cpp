@@ -346,7 +346,7 @@ void Solver::Impl::take_material(int index, const Material& m) {
     if (patch.material != index) continue;
     // A textured object's reflectance (emission) is its own, per corner.
     if (scene.meshes[patch.object].corner_reflectance.empty())
-      std::fill_n(mesh.reflectance.begin() + 4 * p, 4, diffuse_reflectance(m));
+      std::fill_n(mesh.reflectance.begin() + 4 * p, 4, diffuse_reflectance(m, curved(patch.object)));
     if (scene.meshes[patch.object].corner_emission.empty())
       std::fill_n(mesh.emission.begin() + 4 * p, 4, m.emission);
   }
@@ -354,32 +354,21 @@ void Solver::Impl::take_material(int index, const Material& m) {
 
 void Solver::Impl::change_material(int index, const Material& m) {
   Material old = scene.materials[index];
-  take_material(index, m);
-  // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did (of
-  // their points' reflected light, `onward` times it). A textured object's reflectance (emission)
-  // is its own.
-  dvec3 rho = diffuse_reflectance(m) - diffuse_reflectance(old);
+  // Reflected light: B = E + rho H, so the patches reflect (rho' - rho) H more than they did. A
+  // textured object's reflectance (emission) is its own.
   dvec3 emission = m.emission - old.emission;
   std::vector<CornerUnshot> emitted(mesh.patches.size());
   for (size_t p = 0; p < mesh.patches.size(); ++p) {
     const Patch& patch = mesh.patches[p];
     emitted[p].fill(dvec3(0.0));
     if (patch.material != index) continue;
-    // Whether the patch takes the material's reflectance (emission), or has its own per corner.
-    bool material_rho = scene.meshes[patch.object].corner_reflectance.empty();
-    bool material_emission = scene.meshes[patch.object].corner_emission.empty();
-    // A hidden object emits nothing, and gathers nothing to reflect.
-    if (patch.area == 0 || !scene.meshes[patch.object].visible) continue;
-    if (material_emission) emitted[p].fill(emission);
-    if (!material_rho) continue;
-    for (int c = 0; c < 4; ++c) {
-      int i = patch.point[c];
-      double onward = mesh.onward[4 * p + c];
-      unshot[p][2 * c] += rho * (front[i] + (onward - 1) * reflected_front[i]);
-      unshot[p][2 * c + 1] += rho * (back[i] + (onward - 1) * reflected_back[i]);
-      touched[i] = 1;
-    }
+    if (scene.meshes[patch.object].corner_reflectance.empty())
+      change_reflectance(int(p), diffuse_reflectance(m, curved(patch.object)));
+    // A hidden object emits nothing.
+    if (patch.area > 0 && scene.meshes[patch.object].visible && scene.meshes[patch.object].corner_emission.empty())
+      emitted[p].fill(emission);
   }
+  take_material(index, m);
   // Emitted light: the difference, shot like all emission.
   std::vector<Source> sources = patch_sources(emitted, false, settings.samples_direct, 1.0, nullptr);
   if (!sources.empty()) gather_direct_change(sources);

@@ -23,8 +23,8 @@ bool is_mirror(const Material& m) {
   return m.roughness <= kMirrorRoughness && (m.specular.x > 0 || m.specular.y > 0 || m.specular.z > 0);
 }
 
-dvec3 diffuse_reflectance(const Material& m) {
-  if (m.roughness <= kMirrorRoughness) return m.reflectance;
+dvec3 diffuse_reflectance(const Material& m, bool curved) {
+  if (m.roughness <= kMirrorRoughness && !curved) return m.reflectance;
   return glm::max(m.reflectance, glm::min(m.reflectance + m.specular, dvec3(kMostDiffuse)));
 }
 
@@ -89,7 +89,7 @@ double MirrorPlane::crossing(const dvec3& origin, const dvec3& dir, double t_max
 
 int object_of(const MirrorPlane& plane, const PatchMesh& mesh) { return mesh.patches[plane.patches()[0]].object; }
 
-MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::vector<std::string>& curved,
+MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::vector<int>& curved,
                           const std::vector<char>* only) {
   MirrorPlanes planes;
   std::shared_ptr<RTCDeviceTy> device;
@@ -118,7 +118,7 @@ MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::ve
     }
     if (groups.empty()) continue;
     if (int(groups.size()) > kMostPlanes) {
-      curved.push_back(scene.meshes[o].name);
+      curved.push_back(int(o));
       continue;
     }
     if (!device) {

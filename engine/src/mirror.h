@@ -21,13 +21,17 @@ namespace radiosity {
 
 // Specular lobes at most this rough are mirrors; rougher ones scatter as a diffuse solve can take them.
 constexpr double kMirrorRoughness = 0.05;
-// An object whose sharp specular patches lie in more planes than this is taken as curved: no mirror.
+// An object whose sharp specular patches lie in more planes than this is taken as curved: no mirror
+// planes, its sharp lobe spread as a rough one is.
 constexpr int kMostPlanes = 6;
 
 bool is_mirror(const Material& m);
 // What a patch of the material reflects diffusely: its reflectance and, where its specular lobe is
-// too rough to be a mirror, that lobe's colour too (spread as a diffuse solve can), kept under one.
-dvec3 diffuse_reflectance(const Material& m);
+// too rough to be a mirror or the patch's object is a curved mirror, that lobe's colour too (spread
+// as a diffuse solve can), kept under one. A convex mirror spreads what it reflects every way (a
+// sphere lit from one side, evenly), so a diffuse lobe of its colour keeps its light and much of
+// where it goes.
+dvec3 diffuse_reflectance(const Material& m, bool curved = false);
 
 class MirrorPlane {
  public:
@@ -60,8 +64,8 @@ class MirrorPlane {
 using MirrorPlanes = std::vector<std::shared_ptr<const MirrorPlane>>;
 
 // The mirror planes of the visible objects of `scene` (those `only` marks, if given); `curved`
-// names the objects whose sharp specular patches form no few planes (left out as mirrors).
-MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::vector<std::string>& curved,
+// lists the objects whose sharp specular patches form no few planes (no mirror planes).
+MirrorPlanes find_mirrors(const PatchMesh& mesh, const SceneDesc& scene, std::vector<int>& curved,
                           const std::vector<char>* only = nullptr);
 // The object whose patches make the plane.
 int object_of(const MirrorPlane& plane, const PatchMesh& mesh);

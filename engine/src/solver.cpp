@@ -238,15 +238,40 @@ void Solver::Impl::add_images(std::vector<Source>& sources, const MirrorPlanes* 
 }
 
 MirrorPlanes Solver::Impl::find_planes(const std::vector<char>* only) {
-  std::vector<std::string> curved;
+  std::vector<int> curved;
   MirrorPlanes planes = find_mirrors(mesh, scene, curved, only);
-  for (const std::string& name : curved) {
-    std::string warning = "object '" + name + "': its mirror is curved (sharp specular faces in more than " +
-                          std::to_string(kMostPlanes) + " planes), and reflects nothing";
+  curved_mirror.resize(mesh.objects.size(), 0);
+  std::vector<char> now(mesh.objects.size(), 0);
+  for (int o : curved) {
+    now[o] = 1;
+    std::string warning = "object '" + scene.meshes[o].name + "': its mirror is curved (sharp specular faces in " +
+                          "more than " + std::to_string(kMostPlanes) + " planes), and reflects diffusely";
     if (std::find(stats.warnings.begin(), stats.warnings.end(), warning) == stats.warnings.end())
       stats.warnings.push_back(warning);  // once, though each solve afresh finds it again
   }
+  for (size_t o = 0; o < mesh.objects.size(); ++o) {
+    if ((only && !(*only)[o]) || now[o] == curved_mirror[o]) continue;
+    curved_mirror[o] = now[o];
+    if (!scene.meshes[o].corner_reflectance.empty()) continue;  // a texture's, per corner
+    for (int p = mesh.objects[o].patch_begin; p < mesh.objects[o].patch_end; ++p)
+      change_reflectance(p, diffuse_reflectance(material(p), now[o]));
+  }
   return planes;
+}
+
+void Solver::Impl::change_reflectance(int p, const dvec3& rho) {
+  dvec3 more = rho - mesh.reflectance[4 * p];
+  std::fill_n(mesh.reflectance.begin() + 4 * p, 4, rho);
+  // A hidden object gathers nothing to reflect; before the first light, nothing is held.
+  if (!injected || more == dvec3(0.0) || mesh.patches[p].area == 0 || !scene.meshes[mesh.patches[p].object].visible)
+    return;
+  for (int c = 0; c < 4; ++c) {
+    int i = mesh.patches[p].point[c];
+    double onward = mesh.onward[4 * p + c];
+    unshot[p][2 * c] += more * (front[i] + (onward - 1) * reflected_front[i]);
+    unshot[p][2 * c + 1] += more * (back[i] + (onward - 1) * reflected_back[i]);
+    touched[i] = 1;
+  }
 }
 
 double Solver::Impl::landed_power() const {

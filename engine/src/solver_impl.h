@@ -63,8 +63,14 @@ struct Solver::Impl {
   MirrorPlanes mirrors;
   // Appends the sources' images in `planes` (null: in every mirror).
   void add_images(std::vector<Source>& sources, const MirrorPlanes* planes = nullptr) const;
-  // The mirror planes of the visible objects `only` marks (null: all), warning of curved ones.
+  // The mirror planes of the visible objects `only` marks (null: all); those of them that are
+  // curved mirrors reflect their sharp lobe diffusely from now on (curved_mirror), with a warning.
   MirrorPlanes find_planes(const std::vector<char>* only = nullptr);
+  std::vector<char> curved_mirror;  // per object, as find_planes last found it
+  bool curved(int object) const { return object < int(curved_mirror.size()) && curved_mirror[object]; }
+  // Sets patch p's reflectance (each corner's) to `rho`: its patches reflect the difference of what
+  // their points hold (of their reflected light, `onward` times it) as more unshot light.
+  void change_reflectance(int p, const dvec3& rho);
 
   std::vector<dvec3> front, back;      // accumulated H per point and side
   std::vector<dvec3> reflected_front, reflected_back;  // the part of it reflected light brought

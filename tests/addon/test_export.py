@@ -711,7 +711,8 @@ def test_glass_metal_and_alpha_rows_fit_the_sidebar(addon, empty_scene):
     listed = effects.items(export.export_scene())
     rows = {short: (kind, detail) for kind, short, detail in listed}
     assert OPTICS_ROWS - {"Mirrors (1 plane)"} <= set(rows)
-    assert rows["Curved mirrors"][1].endswith("(ShaderNodeBsdfGlossy on Sphere)")
+    assert rows["Curved mirrors"] == (effects.APPROXIMATED, "smooth reflection off curved surfaces spread as "
+                                      "diffuse light (ShaderNodeBsdfGlossy on Sphere)")
     assert rows["Mirror to mirror"][1].endswith("(ShaderNodeBsdfGlossy on Plane.003, Plane.004)")
     assert rows["Rough reflection as diffuse"][1].endswith("(ShaderNodeBsdfPrincipled on Plane.001)")
     assert rows["Refraction (direction kept)"] == (effects.APPROXIMATED, "glass passing light on straight, not "
