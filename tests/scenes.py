@@ -224,6 +224,61 @@ def placed(offset):
     return move
 
 
+# A Cornell box with a mirror fixed on its left wall and a sliding one (dynamic) on its back wall,
+# lit by its ceiling, a point lamp in front and the world, with a cube inside. The sliding mirror
+# stays within the scene's bounds: a fresh solve of a scene of other bounds samples differently.
+MIRRORED_STATE = dict(slide=0.0, mirror_visible=True, specular=(0.9, 0.8, 0.7), roughness=0.0,
+                      cube=(0.3, -0.4, 0.5), lamp=(0.3, -2.5, 1.3))
+SLIDING_MATERIAL = 6  # after the box's four, the cube's and the fixed mirror's
+
+
+def mirrored_box(state, patch_size=0.35):
+    scene, ids = cornell_box(patch_size, emission=1.0)
+    cube_material = scene.add_material((0.5, 0.6, 0.7))
+    fixed = scene.add_material((0.05, 0.05, 0.05), specular=(0.8, 0.8, 0.8))
+    sliding = scene.add_material((0.05, 0.05, 0.05), specular=state["specular"], roughness=state["roughness"])
+    assert sliding == SLIDING_MATERIAL
+    _, cube = cube_positions()
+    cube.materials = [cube_material] * len(cube.faces)
+    cube_id = cube.add_to(scene, refine="bilinear", patch_size=patch_size, transform=placed(state["cube"]),
+                          dynamic=True)
+    left = Mesh()  # facing +x
+    left.add_face([(-0.99, -0.6, 0.4), (-0.99, 0.2, 0.4), (-0.99, 0.2, 1.4), (-0.99, -0.6, 1.4)], fixed)
+    back = Mesh()  # facing -y
+    back.add_face([(-0.4, 0.99, 0.7), (0.4, 0.99, 0.7), (0.4, 0.99, 1.6), (-0.4, 0.99, 1.6)], sliding)
+    mirrors = [left.add_to(scene, refine="bilinear", patch_size=patch_size),
+               back.add_to(scene, refine="bilinear", patch_size=patch_size, transform=placed((state["slide"], 0, 0)),
+                           dynamic=True, visible=state["mirror_visible"])]
+    scene.add_point_light(state["lamp"], (30.0, 30.0, 30.0), 0.05)
+    scene.set_world((0.05, 0.05, 0.08))
+    return scene, ids + [cube_id] + mirrors, cube_id, mirrors[1]
+
+
+def sliding_material(s, state):
+    s.set_material(SLIDING_MATERIAL, (0.05, 0.05, 0.05), specular=state["specular"], roughness=state["roughness"])
+
+
+def slide(s, mirror, state):
+    s.set_transform(mirror, placed((state["slide"], 0.0, 0.0)))
+
+
+# Each step: the change to the state, and how the solver is told (solver, cube, mirror, new state).
+MIRRORED_STEPS = [
+    ("the cube moves", dict(cube=(-0.2, -0.1, 0.4)), lambda s, c, m, st: s.set_transform(c, placed(st["cube"]))),
+    ("the mirror slides", dict(slide=0.45), lambda s, c, m, st: slide(s, m, st)),
+    ("it changes colour", dict(specular=(0.4, 0.7, 0.9)), lambda s, c, m, st: sliding_material(s, st)),
+    ("it turns rough, a mirror no more", dict(roughness=0.4), lambda s, c, m, st: sliding_material(s, st)),
+    ("and sharp again", dict(roughness=0.0), lambda s, c, m, st: sliding_material(s, st)),
+    ("it vanishes", dict(mirror_visible=False), lambda s, c, m, st: s.set_visible(m, False)),
+    ("it appears elsewhere", dict(slide=-0.4, mirror_visible=True),
+     lambda s, c, m, st: (slide(s, m, st), s.set_visible(m, True))),
+    ("cube and mirror move together", dict(cube=(0.2, 0.1, 0.3), slide=0.1),
+     lambda s, c, m, st: (s.set_transform(c, placed(st["cube"])), slide(s, m, st))),
+    ("the lamp moves", dict(lamp=(-0.3, -2.0, 1.0)),
+     lambda s, c, m, st: s.set_point_light(0, st["lamp"], (30.0, 30.0, 30.0), 0.05)),
+]
+
+
 # The accuracy an updated frame needs (DESIGN.md, section 5): its RMS against a fresh solve.
 FRAME_BOUND = 0.005
 
