@@ -220,3 +220,35 @@ def test_a_new_image_on_the_card_is_a_material_change_the_solver_follows(addon, 
     got, want = solver.refined(ids["Grid"])[1], fresh.refined(ids["Grid"])[1]
     assert want.max() > 0.1
     np.testing.assert_allclose(got, want, atol=1e-3 * want.max())
+
+
+def blocks(size=64, squares=4, seed=3):
+    """Random squares of alpha 0 or 1, the same under no turn or mirroring of the image."""
+    pattern = np.random.default_rng(seed).integers(0, 2, (squares, squares)).astype(np.float32)
+    return np.kron(pattern, np.ones((size // squares, size // squares), np.float32))
+
+
+def test_blocks_tell_a_turn_and_a_mirror():
+    b = blocks()
+    assert all(not np.array_equal(b, t) and not np.array_equal(b, 1 - t)
+               for t in (b.T, b[::-1], b[:, ::-1], np.rot90(b), np.rot90(b, 2), np.rot90(b, 3)))
+
+
+@pytest.mark.parametrize("uv_map", ["", "Turned"])
+def test_the_floor_under_a_leaf_card_agrees_with_cycles(export, uv_map):
+    """Direct light from a point lamp (no radius: exact in Cycles at any sample count) through a
+    card of random blocks, read through its UV map or one turned and shifted: the dappled floor as
+    Cycles bakes it, with transparent shadows."""
+    import test_shading as shading
+    scene, floor = shading.direct_light_grid(32, 4.0)
+    scene.cycles.transparent_max_bounces = 8   # Cycles' shadow rays go on through the card's clear parts
+    shading.diffuse(floor)
+    card(card_material("mix", alpha_image(blocks()), uv_map=uv_map))
+    shading.point_lamp(scene, 500.0, (0.2, -0.1, 3.0))
+    bpy.ops.object.select_all(action='DESELECT')
+    ref = shading.cycles_corners(floor)
+    dark = ref.max(1) < 0.05 * ref.max()
+    assert 200 <= dark.sum() <= len(ref) - 200, dark.sum()   # both clear and opaque squares over the floor
+    err = shading.reference.relative_rms(shading.direct_light(export, floor), ref)
+    print(f"\n  floor under a card of blocks ({uv_map or 'UVMap'}): {100 * err:.3f}% RMS against Cycles", end="")
+    assert err < 0.01
