@@ -296,7 +296,7 @@ class Coverage:
     texels: np.ndarray            # (H, W) float32 in [0, 1], rows from the bottom (texture.factor_texels)
     mean: float                   # of the texels, as the engine takes it
 
-    def __array__(self, dtype=None):
+    def __array__(self, dtype=None, copy=None):
         return self.texels if dtype is None else self.texels.astype(dtype)
 
     def __eq__(self, other):
