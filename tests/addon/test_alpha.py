@@ -252,3 +252,19 @@ def test_the_floor_under_a_leaf_card_agrees_with_cycles(export, uv_map):
     err = shading.reference.relative_rms(shading.direct_light(export, floor), ref)
     print(f"\n  floor under a card of blocks ({uv_map or 'UVMap'}): {100 * err:.3f}% RMS against Cycles", end="")
     assert err < 0.01
+
+
+def test_a_mapping_node_maps_the_uvs_the_engine_reads(export, empty_scene):
+    """UV Map -> Mapping (Point: scale, then location) -> Image Texture: the corners' UVs as mapped."""
+    material = card_material("principled", alpha_image(blocks()), uv_map="UVMap")
+    nt = material.node_tree
+    mapping = nt.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Scale"].default_value = (2.0, 3.0, 1.0)
+    mapping.inputs["Location"].default_value = (0.1, -0.2, 0.0)
+    nt.links.new(nt.nodes["UV Map"].outputs["UV"], mapping.inputs["Vector"])
+    nt.links.new(mapping.outputs["Vector"], nt.nodes["Image Texture"].inputs["Vector"])
+    card(material)
+    s, m = exported(export, material)
+    assert m.coverage is not None
+    uv = np.array([(0, 0), (1, 0), (1, 1), (0, 1)], float)
+    np.testing.assert_allclose(s.mesh("Card").corner_uv, uv * (2.0, 3.0) + (0.1, -0.2), atol=1e-3)
