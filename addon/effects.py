@@ -106,7 +106,7 @@ def _optics(sx, users, meshes):
         (APPROXIMATED, "Mix factors as means",
          "a Mix factor or Alpha that varies over a mesh (a procedural texture, a mix of images) taken as its mean",
          noted(exporter.MEAN_FACTOR)),
-        (APPROXIMATED, "Alpha without UVs as means", "an image's alpha on a mesh without its UV map taken as its mean",
+        (APPROXIMATED, "Alpha without UVs", "an image's alpha on a mesh without its UV map taken as its mean",
          _users([m for m in meshes if m.corner_uv is None]), lambda m: m.coverage is not None),
         (APPROXIMATED, "Rough reflection as diffuse", "rough metal and glossy reflection spread as diffuse light",
          lambda m: max(m.specular) > 0 and not _sharp(m)),

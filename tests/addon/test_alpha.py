@@ -142,11 +142,26 @@ def test_what_the_engine_cannot_read_by_place_goes_as_its_mean(export, empty_sce
     assert any("no UV map Nowhere for the alpha" in w for w in s.warnings)
 
 
-def test_effects_name_alpha_cut_outs_as_simulated(addon, empty_scene):
-    card(card_material("mix", alpha_image(checkers())))
+def test_effects_name_alpha_cut_outs_as_simulated_and_those_without_uvs_as_means(addon, empty_scene):
+    """The rows name the material and the objects; a card without the UV map goes as the mean. Both
+    rows' short words fit the sidebar uncut (test_panel_fit)."""
+    import test_panel_fit as panel
+    material = card_material("mix", alpha_image(checkers()))
+    card(material)
     rows = {short: (kind, detail) for kind, short, detail in addon.effects.items(addon.export.export_scene())}
     assert rows["Alpha cut-outs"][0] == addon.effects.SIMULATED and rows["Alpha cut-outs"][1].endswith("(mix on Card)")
-    assert "Mix factors as means" not in rows
+    assert "Mix factors as means" not in rows and "Alpha without UVs" not in rows
+    bare = card(material, z=2.0, name="Bare")
+    bare.data.uv_layers.remove(bare.data.uv_layers["Turned"])
+    bare.data.uv_layers.remove(bare.data.uv_layers["UVMap"])
+    rows = {short: (kind, detail) for kind, short, detail in addon.effects.items(addon.export.export_scene())}
+    assert rows["Alpha cut-outs"][1].endswith("(mix on Card)")
+    assert rows["Alpha without UVs"] == (addon.effects.APPROXIMATED, "an image's alpha on a mesh without "
+                                                  "its UV map taken as its mean (mix on Bare)")
+    cut = []
+    for short in ("Alpha cut-outs", "Alpha without UVs"):
+        panel.fits(short, panel.WIDTHS["sidebar"] - panel.PAD - panel.CLIP - panel.ICON, "effects", cut)
+    assert not cut, cut
 
 
 RHO, SUN = 0.5, 3.0
