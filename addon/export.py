@@ -707,24 +707,25 @@ def _uv_map(corners, name):
 def _coverage_uvs(corners, gathered):
     """(K, 2) where each exported corner reads its face's material's coverage (MaterialExport.coverage:
     its texture's UV map through its Mapping node), zero at the faces of other materials; None where
-    no face's material has one. A material whose map the mesh lacks passes its mean there (said)."""
+    no face's material has one, or where the mesh lacks a map one of them reads: the engine takes
+    UVs for a whole mesh, so all its materials then pass their means (said)."""
     materials = gathered.materials
     covered = [int(i) for i in np.unique(corners.face_materials) if materials[i].coverage is not None]
     if not covered:
         return None
     corner_material = np.repeat(corners.face_materials, corners.sizes)
-    out, found = np.zeros((len(corner_material), 2)), False
+    out = np.zeros((len(corner_material), 2))
     for i in covered:
         ref = materials[i].coverage.texture
         uv = _uv_map(corners, ref.uv_map)
         if uv is None:
             gathered.warnings.append(f"{corners.label}: no UV map{' ' + ref.uv_map if ref.uv_map else ''} for "
-                                     f"the alpha of {materials[i].name}; its mean is used")
-            continue
+                                     f"the alpha of {materials[i].name}; the alpha of its materials goes as "
+                                     "their means")
+            return None
         at = corner_material == i
         out[at] = colour_texture.mapped_uv(ref, uv[at])
-        found = True
-    return out if found else None
+    return out
 
 
 def _corner_keys(co, sizes, fv):

@@ -136,10 +136,22 @@ def test_what_the_engine_cannot_read_by_place_goes_as_its_mean(export, empty_sce
     np.testing.assert_allclose(m.transmittance, np.array((1.0, 0.9, 0.8)) * 0.5, rtol=1e-6)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     missing = card_material("mix", alpha_image(checkers()), uv_map="Nowhere")
-    card(missing)
+    ob = card(missing)
     s, m = exported(export, missing)
     assert s.mesh("Card").corner_uv is None
     assert any("no UV map Nowhere for the alpha" in w for w in s.warnings)
+    # Beside a material the mesh has the map of, both go as their means: UVs go a whole mesh.
+    ob.data.materials.append(card_material("principled", alpha_image(checkers())))
+    bpy.ops.object.select_all(action='DESELECT')
+    bpy.context.view_layer.objects.active = ob
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='SELECT')
+    bpy.ops.mesh.subdivide()
+    bpy.ops.object.mode_set(mode='OBJECT')
+    ob.data.polygons.foreach_set("material_index", np.arange(len(ob.data.polygons)) % 2)
+    ob.data.update()
+    s = export.export_scene()
+    assert len(np.unique(s.mesh("Card").face_materials)) == 2 and s.mesh("Card").corner_uv is None
 
 
 def test_effects_name_alpha_cut_outs_as_simulated_and_those_without_uvs_as_means(addon, empty_scene):
