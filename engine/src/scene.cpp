@@ -22,6 +22,23 @@ void check_reflectance(const dvec3& rho, const std::string& who) {
       fail(who + ": reflectance must be in [0, 1) (a surface cannot reflect all light it gets)");
 }
 
+// An image of width x height texels (rows from the bottom) read bilinearly at (x, y) in texels,
+// their centres at whole numbers: the columns repeat, the rows repeat or hold at the ends.
+template <class T>
+T bilinear_texel(const std::vector<T>& texels, int width, int height, double x, double y, bool rows_repeat) {
+  auto wrap = [](double i, int n) {  // fmod is exact, however far from 0
+    double r = std::fmod(i, double(n));
+    return std::clamp(int(r < 0 ? r + n : r), 0, n - 1);
+  };
+  double fx = std::floor(x), fy = std::floor(y);
+  double tx = x - fx, ty = y - fy;
+  int c0 = wrap(fx, width), c1 = (c0 + 1) % width;
+  int r0 = rows_repeat ? wrap(fy, height) : std::clamp(int(fy), 0, height - 1);
+  int r1 = rows_repeat ? (r0 + 1) % height : std::clamp(int(fy) + 1, 0, height - 1);
+  auto texel = [&](int c, int r) { return texels[size_t(r) * width + c]; };
+  return (1 - ty) * ((1 - tx) * texel(c0, r0) + tx * texel(c1, r0)) + ty * ((1 - tx) * texel(c0, r1) + tx * texel(c1, r1));
+}
+
 std::string mesh_label(const MeshDesc& m, size_t i) {
   return "object '" + (m.name.empty() ? "#" + std::to_string(i) : m.name) + "'";
 }
@@ -141,16 +158,7 @@ void SceneDesc::validate() const {
 }
 
 float AlphaMap::at(double u, double v) const {
-  double x = u * width - 0.5, y = v * height - 0.5;
-  double fx = std::floor(x), fy = std::floor(y);
-  float tx = float(x - fx), ty = float(y - fy);
-  auto wrap = [](double i, int n) {  // Repeat; fmod is exact, however far from 0
-    double r = std::fmod(i, double(n));
-    return std::clamp(int(r < 0 ? r + n : r), 0, n - 1);
-  };
-  int c0 = wrap(fx, width), c1 = (c0 + 1) % width, r0 = wrap(fy, height), r1 = (r0 + 1) % height;
-  auto texel = [&](int c, int r) { return texels[size_t(r) * width + c]; };
-  return (1 - ty) * ((1 - tx) * texel(c0, r0) + tx * texel(c1, r0)) + ty * ((1 - tx) * texel(c0, r1) + tx * texel(c1, r1));
+  return float(bilinear_texel(texels, width, height, u * width - 0.5, v * height - 0.5, true));
 }
 
 AlphaMap::AlphaMap(int width, int height, std::vector<float> texels)
@@ -171,12 +179,7 @@ dvec3 WorldMap::at(const dvec3& d) const {
   constexpr double kPi = 3.14159265358979323846;
   double x = (0.5 - std::atan2(d.y, d.x) / (2 * kPi)) * width - 0.5;
   double y = (0.5 + std::asin(std::clamp(d.z, -1.0, 1.0)) / kPi) * height - 0.5;
-  double fx = std::floor(x), fy = std::floor(y);
-  double tx = x - fx, ty = y - fy;
-  int c0 = ((int(fx) % width) + width) % width, c1 = (c0 + 1) % width;  // columns wrap round
-  int r0 = std::clamp(int(fy), 0, height - 1), r1 = std::clamp(int(fy) + 1, 0, height - 1);
-  auto texel = [&](int c, int r) { return texels[size_t(r) * width + c]; };
-  return (1 - ty) * ((1 - tx) * texel(c0, r0) + tx * texel(c1, r0)) + ty * ((1 - tx) * texel(c0, r1) + tx * texel(c1, r1));
+  return bilinear_texel(texels, width, height, x, y, false);  // round the columns, held at the poles
 }
 
 dvec3 WorldMap::direction(int column, int row) const {
