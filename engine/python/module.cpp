@@ -59,19 +59,17 @@ std::vector<T> flat(const Array<T>& a) {
   return std::vector<T>(a.data(), a.data() + a.size());
 }
 
-std::vector<dvec3> points(const Array<double>& a, const char* what) {
-  if (a.ndim() != 2 || a.shape(1) != 3) throw std::invalid_argument(std::string(what) + " must be an (N, 3) array");
-  std::vector<dvec3> out(a.shape(0));
+// The rows of an (N, L) array as glm vectors of length L.
+template <int L>
+std::vector<glm::vec<L, double>> rows(const Array<double>& a, const char* what) {
+  if (a.ndim() != 2 || a.shape(1) != L)
+    throw std::invalid_argument(std::string(what) + " must be an (N, " + std::to_string(L) + ") array");
+  std::vector<glm::vec<L, double>> out(a.shape(0));
   std::memcpy(out.data(), a.data(), sizeof(double) * a.size());
   return out;
 }
 
-std::vector<glm::dvec2> uvs(const Array<double>& a) {
-  if (a.ndim() != 2 || a.shape(1) != 2) throw std::invalid_argument("corner_uv must be an (N, 2) array");
-  std::vector<glm::dvec2> out(a.shape(0));
-  std::memcpy(out.data(), a.data(), sizeof(double) * a.size());
-  return out;
-}
+std::vector<dvec3> points(const Array<double>& a, const char* what) { return rows<3>(a, what); }
 
 constexpr const char* kWorldMapDoc =
     "The world's radiance by direction: (H, W, 3), equirectangular in Cycles' layout, rows from the bottom";
@@ -280,7 +278,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
                for (bool b : flat(*smooth)) mesh.face_smooth.push_back(b);
              if (corner_reflectance) mesh.corner_reflectance = points(*corner_reflectance, "corner_reflectance");
              if (corner_emission) mesh.corner_emission = points(*corner_emission, "corner_emission");
-             if (corner_uv) mesh.corner_uv = uvs(*corner_uv);
+             if (corner_uv) mesh.corner_uv = rows<2>(*corner_uv, "corner_uv");
              s.meshes.push_back(std::move(mesh));
              return int(s.meshes.size()) - 1;
            },
