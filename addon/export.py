@@ -56,12 +56,15 @@ class MaterialExport:
     specular: tuple = (0.0, 0.0, 0.0)
     roughness: float = 0.5
     notes: frozenset = frozenset()    # what the lobes stand in for approximately or leave out (FROSTED...)
+    # Where the surface is, by place (Coverage): `transmittance` passes where it is not; the
+    # meshes that use the material give the UVs (MeshExport.corner_uv). None: everywhere alike.
+    coverage: object = None
 
     def lobes(self):
         """Scene.add_material's keywords after the reflectance, in the order Solver.set_material takes them
         after its index and reflectance."""
         return dict(emission=self.emission, transmittance=self.transmittance, glass=self.glass, ior=self.ior,
-                    specular=self.specular, roughness=self.roughness)
+                    specular=self.specular, roughness=self.roughness, alpha=self.coverage)
 
 
 @dataclass
@@ -84,6 +87,7 @@ class MeshExport:
     smooth: np.ndarray = None     # (F,) bool, Shade Smooth per face (Cycles bakes with interpolated normals)
     corner_reflectance: np.ndarray = None  # (K,3) per exported corner where a material has a texture
     corner_emission: np.ndarray = None     # (K,3) the same where a material's emission has one
+    corner_uv: np.ndarray = None  # (K,2) where a material's coverage is read (MaterialExport.coverage), or None
     object_type: str = 'MESH'     # the Blender object's: the others light the scene but hold no colours
     deforms: bool = False         # modifiers or shape keys may bend it (the engine keeps its flat faces' points apart)
 
@@ -158,8 +162,8 @@ class _Corners:
     sizes: np.ndarray             # (F,) face sizes
     face_materials: np.ndarray    # (F,) scene-wide material index of each face
     label: str                    # the object's name in warnings
-    uvs: dict = field(default_factory=dict)   # {UV map name: the corners' UVs}: read once for reflectance
-                                              # and emission (several textured materials may share one)
+    uvs: dict = field(default_factory=dict)   # {UV map name: the corners' UVs}: read once for reflectance,
+                                              # emission and coverage (several materials may share one)
 
 
 # ----------------------------------------------------------------------------- materials
@@ -228,24 +232,40 @@ class Lobes:
     specular: np.ndarray = field(default_factory=_zero)        # mirror colour (Glossy BSDF, metal)
     roughness: float = 0.5                                     # of the specular lobe
     notes: frozenset = frozenset()
+    # Where the surface is (Coverage): `transmittance` then passes where it is not, the other lobes
+    # hold on average. None: transmittance everywhere.
+    coverage: object = None
 
     COLOURS = ("reflectance", "emission", "transmittance", "glass", "specular")
 
     def scaled(self, f):
         """Every colour times f (a number); what a zero weight leaves has no notes."""
         return replace(self, notes=self.notes if f > 0 else frozenset(),
-                       **{k: getattr(self, k) * f for k in self.COLOURS})
+                       coverage=self.coverage if f > 0 else None, **{k: getattr(self, k) * f for k in self.COLOURS})
+
+    def averaged(self):
+        """The same with its transmittance as its mean over its coverage's places."""
+        if self.coverage is None:
+            return self
+        return replace(self, transmittance=self.transmittance * (1 - self.coverage.mean), coverage=None,
+                       notes=self.notes | {MEAN_FACTOR})
 
     def plus(self, other):
         """The sum of two shaders (an Add shader, the two sides of a Mix once weighted): colours add,
         the index of refraction and the roughness average by the glass and specular lobes they
-        belong to."""
+        belong to. A coverage stays where the other shader passes no light straight through; else
+        both go as their means."""
+        if (self.coverage is not None and other.transmittance.any()) or \
+                (other.coverage is not None and self.transmittance.any()):
+            self, other = self.averaged(), other.averaged()
+
         def by(weight, key):
             wa, wb = float(np.mean(getattr(self, weight))), float(np.mean(getattr(other, weight)))
             a, b = getattr(self, key), getattr(other, key)
             return (wa * a + wb * b) / (wa + wb) if wa + wb > 0 else a
         return Lobes(**{k: getattr(self, k) + getattr(other, k) for k in self.COLOURS},
-                     ior=by("glass", "ior"), roughness=by("specular", "roughness"), notes=self.notes | other.notes)
+                     ior=by("glass", "ior"), roughness=by("specular", "roughness"), notes=self.notes | other.notes,
+                     coverage=self.coverage if self.coverage is not None else other.coverage)
 
 
 def _tint(node, name, warnings, images):
@@ -257,13 +277,43 @@ def _tint(node, name, warnings, images):
 
 
 def _factor(node, name, warnings, images):
-    """(value, varies) of a number input: an image's alpha or a colour's luminance linked into it
-    taken as its mean over the image (varies: True), else its unlinked value."""
+    """(value, source) of a number input: an image's alpha or a colour's luminance linked into it
+    (source: its texture.GrayRef) taken as its mean over the image, else its unlinked value (None)."""
     socket = node.inputs[name]
     value = colour_texture.input_number(node, socket, warnings, 0)
     if isinstance(value, float):
-        return value, False
-    return float(colour_texture.mean_of(value, images)), True
+        return value, None
+    return float(colour_texture.mean_of(value, images)), value
+
+
+@dataclass(eq=False)
+class Coverage:
+    """Where a material's surface is, by place: what an Image Texture gives a factor (its alpha, or its
+    colour's luminance), or one minus it where the factor weighs the transparent side. The engine
+    reads it at each ray's crossing (its Material.alpha): an array to it (__array__), and equal to
+    another of the same texels, which is what a change of material compares."""
+    texture: object               # texture.TextureRef: its UV map and Mapping say where a mesh reads it
+    texels: np.ndarray            # (H, W) float32 in [0, 1], rows from the bottom (texture.factor_texels)
+    mean: float                   # of the texels, as the engine takes it
+
+    def __array__(self, dtype=None, copy=None):
+        return self.texels if dtype is None else self.texels.astype(dtype)
+
+    def __eq__(self, other):
+        return isinstance(other, Coverage) and np.array_equal(self.texels, other.texels)
+
+
+def _coverage(source, images, inverted=False):
+    """Coverage of a factor's source (_factor), or None where the engine cannot read it per place:
+    anything but an image texture straight into the factor, or one that does not repeat (Repeat,
+    the node's default, is what the engine reads)."""
+    ref = source.colour if isinstance(source, colour_texture.GrayRef) else None
+    if not isinstance(ref, colour_texture.TextureRef) or ref.extension != 'REPEAT':
+        return None
+    texels = colour_texture.factor_texels(ref, images)
+    if inverted:
+        texels = (1 - texels).astype(np.float32)
+    return Coverage(ref, texels, float(texels.mean(dtype=np.float64)))
 
 
 def _first(node, names):
@@ -300,14 +350,19 @@ def _principled(node, warnings, textures, emissions, images):
     glass_roughness = 1 - (1 - roughness) * (1 - _number(node, ("Transmission Roughness",), warnings))
     if trans * (1 - metal) > 0 and glass_roughness > FROSTED_ROUGHNESS:
         notes.add(FROSTED)
-    alpha, varies = _factor(node, "Alpha", warnings, images)
-    if varies:
+    alpha, source = _factor(node, "Alpha", warnings, images)
+    coverage = _coverage(source, images)
+    if coverage is not None:
+        alpha = coverage.mean
+    elif source is not None:
         notes.add(MEAN_FACTOR)
     lobes = Lobes(reflectance=base * dielectric, emission=ecol * (1.0 if estr is None else float(estr)),
                   glass=tint * trans * (1 - metal), ior=_number(node, ("IOR",), warnings, 1.45),
                   specular=tint * metal, roughness=roughness, notes=frozenset(notes))
     if alpha >= 1:
         return lobes
+    if coverage is not None:   # white where the surface is not
+        return lobes.scaled(alpha).plus(Lobes(transmittance=np.ones(3), coverage=coverage))
     return lobes.scaled(max(alpha, 0.0)).plus(Lobes(transmittance=np.full(3, 1 - max(alpha, 0.0))))
 
 
@@ -338,12 +393,22 @@ def _shader(node, warnings, depth=0, textures=None, emissions=None, images=None)
         return _shader(_linked(node.inputs[0]), warnings, depth + 1, images=images).plus(
             _shader(_linked(node.inputs[1]), warnings, depth + 1, images=images))
     if t == 'MIX_SHADER':
-        f, varies = _factor(node, "Fac", warnings, images)
+        f, source = _factor(node, "Fac", warnings, images)
         f = min(max(f, 0.0), 1.0)
         a = _shader(_linked(node.inputs[1]), warnings, depth + 1, images=images)
         b = _shader(_linked(node.inputs[2]), warnings, depth + 1, images=images)
+        # One side passes light straight through (a Transparent BSDF): the factor says, by place,
+        # how much of the other is there, read by the engine per ray (leaves, curtains).
+        clear = [x.transmittance.any() and x.coverage is None for x in (a, b)]
+        coverage = None
+        if source is not None and clear[0] != clear[1] and a.coverage is None and b.coverage is None:
+            coverage = _coverage(source, images, inverted=clear[1])
+        if coverage is not None:
+            f = 1 - coverage.mean if clear[1] else coverage.mean
         mixed = a.scaled(1 - f).plus(b.scaled(f))
-        return replace(mixed, notes=mixed.notes | {MEAN_FACTOR}) if varies else mixed
+        if coverage is not None:
+            return replace(mixed, transmittance=(b if clear[1] else a).transmittance, coverage=coverage)
+        return replace(mixed, notes=mixed.notes | {MEAN_FACTOR}) if source is not None else mixed
     if t == 'GROUP' or t == 'REROUTE':
         warnings.append(f"{node.name}: {t} node not followed; treated as black")
         return Lobes()
@@ -366,7 +431,8 @@ def _material(name, lobes, warnings, texture=None, emission_texture=None):
     rho = _below_one(lobes.reflectance, "its colours", warnings)
     tau, glass, spec = (np.clip(np.asarray(c, np.float64), 0.0, 1.0)
                         for c in (lobes.transmittance, lobes.glass, lobes.specular))
-    total = rho + tau + glass + spec
+    # With a coverage, the transmittance passes where the surface is not: on average 1 - its mean.
+    total = rho + tau * (1 - lobes.coverage.mean if lobes.coverage is not None else 1.0) + glass + spec
     if (total > 1).any():
         warnings.append(f"its lobes pass on up to {total.max():.3g} of the light; scaled down to one "
                         "(a surface cannot give out more light than it gets)")
@@ -376,7 +442,7 @@ def _material(name, lobes, warnings, texture=None, emission_texture=None):
         warnings.append(f"index of refraction {lobes.ior:.3g} taken as {ior:.3g}")
     return MaterialExport(name, _rgb(rho), _rgb(np.maximum(lobes.emission, 0.0)), list(dict.fromkeys(warnings)),
                           texture, emission_texture, _rgb(tau), _rgb(glass), ior, _rgb(spec),
-                          float(np.clip(lobes.roughness, 0.0, 1.0)), lobes.notes)
+                          float(np.clip(lobes.roughness, 0.0, 1.0)), lobes.notes, lobes.coverage)
 
 
 def material_values(mat, images=None):
@@ -581,7 +647,7 @@ def _corner_values(corners, gathered, emission=False):
     there, nodes of those; None when none does."""
     me, loops, sizes, face_materials, label = (corners.me, corners.loops, corners.sizes, corners.face_materials,
                                                corners.label)
-    materials, images, warnings, by_layer = gathered.materials, gathered.images, gathered.warnings, corners.uvs
+    materials, images, warnings = gathered.materials, gathered.images, gathered.warnings
     source_of = (lambda m: m.emission_texture) if emission else (lambda m: m.texture)
     textured = {int(i) for i in np.unique(face_materials) if source_of(materials[i]) is not None}
     if not textured:
@@ -589,22 +655,6 @@ def _corner_values(corners, gathered, emission=False):
     per_material = np.array([m.emission if emission else m.reflectance for m in materials], np.float64).reshape(-1, 3)
     rho = np.repeat(per_material[face_materials], sizes, axis=0)
     corner_material = np.repeat(face_materials, sizes)
-    starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
-
-    def uv_map(name):
-        """The exported corners' UVs of a map ("": the active render one), or None."""
-        layer = me.uv_layers.get(name) if name else next((l for l in me.uv_layers if l.active_render),
-                                                         me.uv_layers.active)
-        if layer is not None and layer.name not in by_layer:
-            uv = np.empty(len(me.loops) * 2, np.float32)
-            layer.data.foreach_get("uv", uv)
-            uv = uv.reshape(-1, 2).astype(np.float64)
-            if loops is not None:
-                uv = uv[loops]
-            # A hair towards each face's middle, where Cycles reads a corner (texture.corner_colours).
-            middle = np.repeat(np.add.reduceat(uv, starts) / sizes[:, None], sizes, axis=0)
-            by_layer[layer.name] = uv + INSIDE * (middle - uv)
-        return None if layer is None else by_layer[layer.name]
 
     def values(source, at, material):
         """(n, 3) of `source` at the corners `at`, or (3,) where it does not vary; (n,) or a number
@@ -622,7 +672,7 @@ def _corner_values(corners, gathered, emission=False):
             colours = colour_texture.attribute_colours(source, me, loops, label, warnings)
             return colours[at] if colours is not None else colour_texture.mean_of(source, images)
         if isinstance(source, colour_texture.TextureRef):
-            uv = uv_map(source.uv_map)
+            uv = _uv_map(corners, source.uv_map)
             if uv is None:
                 warnings.append(f"{label}: no UV map{' ' + source.uv_map if source.uv_map else ''} for the "
                                 f"texture of {material}; its mean colour is used")
@@ -634,6 +684,48 @@ def _corner_values(corners, gathered, emission=False):
         at = corner_material == i
         rho[at] = values(source_of(materials[i]), at, materials[i].name)
     return np.maximum(rho, 0.0) if emission else _below_one(rho, f"{label}'s texture colours", warnings)
+
+
+def _uv_map(corners, name):
+    """The exported corners' UVs (K, 2) of a UV map ("": the active render one), or None."""
+    me, loops, sizes = corners.me, corners.loops, corners.sizes
+    layer = me.uv_layers.get(name) if name else next((l for l in me.uv_layers if l.active_render),
+                                                     me.uv_layers.active)
+    if layer is not None and layer.name not in corners.uvs:
+        uv = np.empty(len(me.loops) * 2, np.float32)
+        layer.data.foreach_get("uv", uv)
+        uv = uv.reshape(-1, 2).astype(np.float64)
+        if loops is not None:
+            uv = uv[loops]
+        # A hair towards each face's middle, where Cycles reads a corner (texture.corner_colours).
+        starts = np.concatenate(([0], np.cumsum(sizes)[:-1]))
+        middle = np.repeat(np.add.reduceat(uv, starts) / sizes[:, None], sizes, axis=0)
+        corners.uvs[layer.name] = uv + INSIDE * (middle - uv)
+    return None if layer is None else corners.uvs[layer.name]
+
+
+def _coverage_uvs(corners, gathered):
+    """(K, 2) where each exported corner reads its face's material's coverage (MaterialExport.coverage:
+    its texture's UV map through its Mapping node), zero at the faces of other materials; None where
+    no face's material has one, or where the mesh lacks a map one of them reads: the engine takes
+    UVs for a whole mesh, so all its materials then pass their means (said)."""
+    materials = gathered.materials
+    covered = [int(i) for i in np.unique(corners.face_materials) if materials[i].coverage is not None]
+    if not covered:
+        return None
+    corner_material = np.repeat(corners.face_materials, corners.sizes)
+    out = np.zeros((len(corner_material), 2))
+    for i in covered:
+        ref = materials[i].coverage.texture
+        uv = _uv_map(corners, ref.uv_map)
+        if uv is None:
+            gathered.warnings.append(f"{corners.label}: no UV map{' ' + ref.uv_map if ref.uv_map else ''} for "
+                                     f"the alpha of {materials[i].name}; the alpha of its materials goes as "
+                                     "their means")
+            return None
+        at = corner_material == i
+        out[at] = colour_texture.mapped_uv(ref, uv[at])
+    return out
 
 
 def _corner_keys(co, sizes, fv):
@@ -712,6 +804,7 @@ def export_mesh(ob_eval, matrix, gathered, name=None, rendered=None):
         corners = _Corners(me, loops, sizes, fm, name or ob_eval.name)
         rho = _corner_values(corners, gathered)
         emitted = _corner_values(corners, gathered, emission=True)
+        uv = _coverage_uvs(corners, gathered)
         smooth = np.empty(len(me.polygons), bool)
         me.polygons.foreach_get("use_smooth", smooth)
         if me.use_auto_smooth and smooth.any():
@@ -722,7 +815,8 @@ def export_mesh(ob_eval, matrix, gathered, name=None, rendered=None):
     return MeshExport(name or ob_eval.name, co, sizes, fv, fm.astype(np.int32),
                       np.array(matrix, np.float64), refine, level, original, matches,
                       _is_animated(orig), orig.name, smooth=smooth, corner_reflectance=rho, object_type=orig.type,
-                      corner_emission=emitted, deforms=orig.type == 'MESH' and bool(_deforming(orig)))
+                      corner_emission=emitted, deforms=orig.type == 'MESH' and bool(_deforming(orig)),
+                      corner_uv=uv)
 
 
 # ----------------------------------------------------------------------------- lights
@@ -977,7 +1071,7 @@ def to_engine(sx, engine, patch_size=0.0, dynamic=None, after=None):
             m.positions, m.face_sizes, m.face_vertices, np.asarray(m.face_materials, np.int32), m.transform,
             refine=m.refine, level=m.level, patch_size=patch_size, dynamic=bool(dyn), name=m.name,
             visible=m.visible, smooth=m.smooth, corner_reflectance=m.corner_reflectance,
-            corner_emission=m.corner_emission, deforms=m.deforms)
+            corner_emission=m.corner_emission, deforms=m.deforms, corner_uv=m.corner_uv)
     for l in sx.lights[first[2]:]:
         getattr(s, f"add_{l.kind}_light")(*lamp_args(l))
     if sx.world_map is not None:

@@ -31,13 +31,14 @@ RETIRED = "\0retired"
 
 
 def _same_layout(a, b):
-    """Whether the engine can take mesh `b` in place of `a`: the same patches, points, shading and colours."""
+    """Whether the engine can take mesh `b` in place of `a`: the same patches, points, shading, colours
+    and UVs."""
     return (a.refine == b.refine and a.level == b.level and a.deforms == b.deforms
             and a.positions.shape == b.positions.shape
             and np.array_equal(a.face_sizes, b.face_sizes) and np.array_equal(a.face_vertices, b.face_vertices)
             and np.array_equal(a.face_materials, b.face_materials)
             and _same(a.smooth, b.smooth) and _same(a.corner_reflectance, b.corner_reflectance)
-            and _same(a.corner_emission, b.corner_emission))
+            and _same(a.corner_emission, b.corner_emission) and _same(a.corner_uv, b.corner_uv))
 
 
 def _as_held(a, b, bent):
@@ -58,7 +59,7 @@ def align_export(old, new, bent=False):
     old's, hidden (lamps dark): the engine keeps what it had, only its visibility changes, and it can
     come back later (undo of a delete). A visible mesh is new's, its material indices mapped to the
     result's list. A mesh the engine cannot change in place (its topology, material assignment,
-    smooth / flat shading, texture colours or whether it deforms changed) or a lamp of another type or area shape keeps
+    smooth / flat shading, texture colours or UVs or whether it deforms changed) or a lamp of another type or area shape keeps
     old's entry, renamed RETIRED and hidden or dark, and comes again after, as new's. `bent`: the
     engine refused `new` as a change of `old` (flat faces bent apart at a vertex they share); flat
     meshes whose own vertices moved go as deforming from then on (_as_held)."""

@@ -20,7 +20,8 @@ from .writeback import ATTRIBUTE as OUTPUT_ATTRIBUTE
 
 __all__ = ["TextureRef", "AttributeRef", "MixRef", "AdjustRef", "RampRef", "GrayRef", "Images", "colour_source",
            "image_texture", "corner_colours", "attribute_colours", "blended", "adjusted", "ramped", "gray", "leaves",
-           "varies", "mean_of", "mean_colour", "mapping_of", "encoded_srgb", "srgb_to_linear", "input_number"]
+           "varies", "mean_of", "mean_colour", "mapping_of", "mapped_uv", "encoded_srgb", "srgb_to_linear", "input_number",
+           "factor_texels", "MAX_FACTOR_SIDE"]
 
 
 @dataclass
@@ -398,7 +399,7 @@ def mapping_of(node, warnings):
     return np.hstack([linear, (location if kind == 'POINT' else np.zeros(3))[:, None]])
 
 
-def _mapped(ref, uv):
+def mapped_uv(ref, uv):
     """(K, 2) texture coordinates of UVs (K, 2) through ref's Mapping node, if any."""
     if ref.mapping is None:
         return uv
@@ -511,12 +512,42 @@ def mean_colour(ref, images):
     return images.sampled(ref.image, ("mean", ref.output, ref.premultiply, ref.unassociate), None, work)
 
 
+# The longest side of an image factor the engine reads per ray (factor_texels). A 4k leaf atlas would
+# hold 64 MB of floats per material; at 1024 a texel of a 2 m card is 2 mm, finer than the patches
+# that receive its shadow resolve, and a box filter keeps the coverage's mean.
+MAX_FACTOR_SIDE = 1024
+
+
+def factor_texels(ref, images):
+    """(H, W) float32 in [0, 1], rows from the bottom: what `ref`'s image gives a number input per
+    texel (its alpha, or its colour's luminance, as a GrayRef reads it), box-filtered down by whole
+    factors to at most MAX_FACTOR_SIDE a side."""
+    def work():
+        px = images.pixels(ref.image)
+        h, w = px.shape[:2]
+        if not h or not w:
+            return np.zeros((1, 1), np.float32)
+        sy, sx = -(-h // MAX_FACTOR_SIDE), -(-w // MAX_FACTOR_SIDE)
+        # The texels past the last whole block of a side (fewer than a step) are left off.
+        h2, w2 = h // sy, w // sx
+        px = px[:h2 * sy, :w2 * sx]
+        if ref.output == "Alpha":
+            factor = px[..., 3]
+        else:   # a band of rows at a time: a 4k image's colours in float64 would take 400 MB
+            band = max(1, 256 // sy) * sy
+            factor = np.concatenate([gray(_read_out(ref, _stored(ref, px[r:r + band].reshape(-1, 4))))
+                                     .reshape(-1, w2 * sx) for r in range(0, h2 * sy, band)])
+        factor = factor.reshape(h2, sy, w2, sx).mean((1, 3), dtype=np.float64)
+        return np.clip(factor, 0.0, 1.0).astype(np.float32)
+    return images.sampled(ref.image, ("factor", ref.output, ref.premultiply, ref.unassociate), None, work)
+
+
 def corner_colours(ref, uv, images, user=""):
     """(K, 3) linear RGB of `ref`'s image at UVs (K, 2), times ref.factor, through `images` (`user`:
     who asks, a mesh and material, so that each keeps its own). Cycles bakes a corner as a point of
     its face: a UV on a texel's edge reads the texel on the face's side, so pass UVs a hair inside
     their faces."""
-    uv = _mapped(ref, uv)
+    uv = mapped_uv(ref, uv)
     key = ("corners", user, ref.interpolation, ref.extension, ref.output, ref.premultiply, ref.unassociate)
     colour = images.sampled(ref.image, key, uv, lambda: _texels_at(ref, uv, images))
     return colour * ref.factor

@@ -26,12 +26,24 @@ using RGB = std::array<double, 3>;
 auto material_lobes() {
   return std::make_tuple(py::arg("emission") = RGB{0, 0, 0}, py::arg("transmittance") = RGB{0, 0, 0},
                          py::arg("glass") = RGB{0, 0, 0}, py::arg("ior") = 1.45, py::arg("specular") = RGB{0, 0, 0},
-                         py::arg("roughness") = 0.5);
+                         py::arg("roughness") = 0.5, py::arg("alpha") = py::none());
+}
+
+using Alpha = std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>>;
+
+// An (H, W) array of alpha, rows from the bottom, as Material::alpha.
+std::shared_ptr<const AlphaMap> alpha_map(const Alpha& a) {
+  if (!a) return nullptr;
+  if (a->ndim() != 2 || a->shape(0) < 1 || a->shape(1) < 1)
+    throw std::invalid_argument("an alpha map must be a non-empty (H, W) array");
+  return std::make_shared<const AlphaMap>(int(a->shape(1)), int(a->shape(0)),
+                                          std::vector<float>(a->data(), a->data() + a->size()));
 }
 
 Material material(RGB reflectance, RGB emission, RGB transmittance, RGB glass, double ior, RGB specular,
-                  double roughness) {
-  return {vec3(reflectance), vec3(emission), vec3(transmittance), vec3(glass), ior, vec3(specular), roughness};
+                  double roughness, const Alpha& alpha) {
+  return {vec3(reflectance), vec3(emission), vec3(transmittance), vec3(glass), ior, vec3(specular), roughness,
+          alpha_map(alpha)};
 }
 
 // Runs `call` without the GIL: C++ work only, on arguments already taken out of Python objects; its
@@ -47,12 +59,17 @@ std::vector<T> flat(const Array<T>& a) {
   return std::vector<T>(a.data(), a.data() + a.size());
 }
 
-std::vector<dvec3> points(const Array<double>& a, const char* what) {
-  if (a.ndim() != 2 || a.shape(1) != 3) throw std::invalid_argument(std::string(what) + " must be an (N, 3) array");
-  std::vector<dvec3> out(a.shape(0));
+// The rows of an (N, L) array as glm vectors of length L.
+template <int L>
+std::vector<glm::vec<L, double>> rows(const Array<double>& a, const char* what) {
+  if (a.ndim() != 2 || a.shape(1) != L)
+    throw std::invalid_argument(std::string(what) + " must be an (N, " + std::to_string(L) + ") array");
+  std::vector<glm::vec<L, double>> out(a.shape(0));
   std::memcpy(out.data(), a.data(), sizeof(double) * a.size());
   return out;
 }
+
+std::vector<dvec3> points(const Array<double>& a, const char* what) { return rows<3>(a, what); }
 
 constexpr const char* kWorldMapDoc =
     "The world's radiance by direction: (H, W, 3), equirectangular in Cycles' layout, rows from the bottom";
@@ -227,11 +244,13 @@ PYBIND11_MODULE(radiosity_engine, m) {
         scene.def(
             "add_material",
             [](SceneDesc& s, RGB reflectance, RGB emission, RGB transmittance, RGB glass, double ior, RGB specular,
-               double roughness) {
-              s.materials.push_back(material(reflectance, emission, transmittance, glass, ior, specular, roughness));
+               double roughness, const Alpha& alpha) {
+              s.materials.push_back(material(reflectance, emission, transmittance, glass, ior, specular, roughness, alpha));
               return int(s.materials.size()) - 1;
             },
-            py::arg("reflectance"), lobes..., "Adds a material and returns its index");
+            py::arg("reflectance"), lobes...,
+            "Adds a material and returns its index. alpha: (H, W) where the surface is, rows from the bottom, "
+            "read at the meshes' corner_uv: a ray passes (1 - alpha) transmittance there (None: everywhere)");
       },
       material_lobes());
   scene.def(py::init<>())
@@ -241,7 +260,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
               std::optional<Array<double>> transform, const std::string& refine, int level,
               double patch_size, bool dynamic, const std::string& name, bool visible,
               std::optional<Array<bool>> smooth, std::optional<Array<double>> corner_reflectance,
-              std::optional<Array<double>> corner_emission, bool deforms) {
+              std::optional<Array<double>> corner_emission, bool deforms, std::optional<Array<double>> corner_uv) {
              MeshDesc mesh;
              mesh.name = name;
              mesh.positions = points(positions, "positions");
@@ -259,6 +278,7 @@ PYBIND11_MODULE(radiosity_engine, m) {
                for (bool b : flat(*smooth)) mesh.face_smooth.push_back(b);
              if (corner_reflectance) mesh.corner_reflectance = points(*corner_reflectance, "corner_reflectance");
              if (corner_emission) mesh.corner_emission = points(*corner_emission, "corner_emission");
+             if (corner_uv) mesh.corner_uv = rows<2>(*corner_uv, "corner_uv");
              s.meshes.push_back(std::move(mesh));
              return int(s.meshes.size()) - 1;
            },
@@ -266,12 +286,13 @@ PYBIND11_MODULE(radiosity_engine, m) {
            py::arg("transform") = py::none(), py::arg("refine") = "none", py::arg("level") = 0,
            py::arg("patch_size") = 0.0, py::arg("dynamic") = false, py::arg("name") = "",
            py::arg("visible") = true, py::arg("smooth") = py::none(), py::arg("corner_reflectance") = py::none(),
-           py::arg("corner_emission") = py::none(), py::arg("deforms") = false,
+           py::arg("corner_emission") = py::none(), py::arg("deforms") = false, py::arg("corner_uv") = py::none(),
            "visible=False: kept (refined) but out of the lighting until Solver.set_visible(id, True); "
            "smooth: per face, shaded smooth (None: smooth for catmull_clark, flat otherwise); "
            "corner_reflectance: (face corners, 3) in face_vertices' order, in place of the materials' "
            "reflectance (a texture sampled at the corners; None: the materials'); corner_emission: the same "
-           "for the emitted radiance; deforms: its flat faces will be bent (Solver.set_positions), so they "
+           "for the emitted radiance; corner_uv: (face corners, 2) texture coordinates where the materials' alpha "
+           "maps are read; deforms: its flat faces will be bent (Solver.set_positions), so they "
            "keep a receiving point each at every vertex (without, bending faces that met flat apart is "
            "refused)")
       .def("add_point_light",
@@ -311,8 +332,9 @@ PYBIND11_MODULE(radiosity_engine, m) {
         solver.def(
             "set_material",
             [](Solver& s, int index, RGB reflectance, RGB emission, RGB transmittance, RGB glass, double ior,
-               RGB specular, double roughness) {
-              s.set_material(index, material(reflectance, emission, transmittance, glass, ior, specular, roughness));
+               RGB specular, double roughness, const Alpha& alpha) {
+              s.set_material(index, material(reflectance, emission, transmittance, glass, ior, specular, roughness,
+                                             alpha));
             },
             py::arg("index"), py::arg("reflectance"), lobes...,
             "The material changes at the next update() (incrementally)");

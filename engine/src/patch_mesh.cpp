@@ -55,6 +55,10 @@ void add_patches(PatchMesh& pm, const MeshDesc& mesh, const RefinedMesh& refined
     };
     per_corner(diffuse_reflectance(materials[patch.material]), refined.corner_reflectance, pm.reflectance);
     per_corner(materials[patch.material].emission, refined.corner_emission, pm.emission);
+    if (!refined.corner_uv.empty() || !pm.uv.empty()) {
+      pm.uv.resize(4 * (pm.patches.size() - 1), dvec3(NAN));  // the slots of objects without UVs before it
+      per_corner(dvec3(NAN), refined.corner_uv, pm.uv);
+    }
   }
 }
 
@@ -412,7 +416,10 @@ void add_object(PatchMesh& pm, const MeshDesc& mesh, const std::vector<Material>
 
 void take_optics(PatchMesh& pm, int object, const std::vector<Material>& materials) {
   ObjectPatches& obj = pm.objects[object];
-  auto of = [&](int q) { return Transmission(materials[pm.patches[q].material], obj.closed_side < 0); };
+  auto of = [&](int q) {
+    bool uv = !pm.uv.empty() && !std::isnan(pm.uv[4 * q].x);
+    return Transmission(materials[pm.patches[q].material], obj.closed_side < 0, uv ? &pm.uv[4 * q] : nullptr);
+  };
   bool passes = false;
   for (int q = obj.patch_begin; q < obj.patch_end && !passes; ++q) passes = of(q).passes();
   if (passes || !pm.transmission.empty()) {

@@ -83,6 +83,8 @@ struct PatchMesh {
   std::vector<double> onward;  // per slot: CornerView::onward
   std::vector<dvec3> reflectance;  // per slot: the material's, or MeshDesc::corner_reflectance there
   std::vector<dvec3> emission;     // per slot: the material's, or MeshDesc::corner_emission there
+  // Per slot: MeshDesc::corner_uv there as (u, v, 0), NaN on an object without; empty while none has.
+  std::vector<dvec3> uv;
   // Per patch: what it lets through (transmission.h); empty while no patch lets light through.
   std::vector<Transmission> transmission;
   std::vector<ObjectPatches> objects;  // one per SceneDesc mesh

@@ -29,15 +29,25 @@ struct Point3 {
   void AddWithWeight(const Point3& src, double w) { p += w * src.p; }
 };
 
-// A face corner's reflectance and emission, refined as one face-varying value.
+// A face corner's reflectance, emission and texture coordinates, refined as one face-varying value.
 struct CornerColours {
-  dvec3 reflectance{0.0}, emission{0.0};
-  void Clear(void* = nullptr) { reflectance = emission = dvec3(0.0); }
+  dvec3 reflectance{0.0}, emission{0.0}, uv{0.0};
+  void Clear(void* = nullptr) { reflectance = emission = uv = dvec3(0.0); }
   void AddWithWeight(const CornerColours& src, double w) {
     reflectance += w * src.reflectance;
     emission += w * src.emission;
+    uv += w * src.uv;
   }
 };
+
+// Face corner k's MeshDesc values, those the mesh has.
+CornerColours corner_colours(const MeshDesc& mesh, size_t k) {
+  CornerColours c;
+  if (!mesh.corner_reflectance.empty()) c.reflectance = mesh.corner_reflectance[k];
+  if (!mesh.corner_emission.empty()) c.emission = mesh.corner_emission[k];
+  if (!mesh.corner_uv.empty()) c.uv = dvec3(mesh.corner_uv[k], 0.0);
+  return c;
+}
 
 bool all_quads_or_triangles(const MeshDesc& mesh) {
   return std::all_of(mesh.face_sizes.begin(), mesh.face_sizes.end(),
@@ -129,6 +139,10 @@ RefinedMesh copy_faces(const MeshDesc& mesh) {
     };
     corners(mesh.corner_reflectance, out.corner_reflectance);
     corners(mesh.corner_emission, out.corner_emission);
+    if (!mesh.corner_uv.empty()) {
+      auto uv = [&](int k) { return corner_colours(mesh, offset + k).uv; };
+      out.corner_uv.push_back({uv(0), uv(1), uv(2), uv(n == 4 ? 3 : 2)});
+    }
     offset += n;
   }
   return out;
@@ -154,7 +168,8 @@ RefinedMesh refine_uniformly(const MeshDesc& mesh, int level) {
   std::vector<int> corner_index;
   Far::TopologyDescriptor::FVarChannel corners;
   bool with_rho = !mesh.corner_reflectance.empty(), with_emission = !mesh.corner_emission.empty();
-  bool textured = with_rho || with_emission;
+  bool with_uv = !mesh.corner_uv.empty();
+  bool textured = with_rho || with_emission || with_uv;
   if (textured) {
     corner_index.resize(mesh.face_vertices.size());
     for (size_t k = 0; k < corner_index.size(); ++k) corner_index[k] = int(k);
@@ -189,9 +204,7 @@ RefinedMesh refine_uniformly(const MeshDesc& mesh, int level) {
   }
   std::vector<CornerColours> colours;
   if (textured)
-    for (size_t k = 0; k < mesh.face_vertices.size(); ++k)
-      colours.push_back({with_rho ? mesh.corner_reflectance[k] : dvec3(0.0),
-                         with_emission ? mesh.corner_emission[k] : dvec3(0.0)});
+    for (size_t k = 0; k < mesh.face_vertices.size(); ++k) colours.push_back(corner_colours(mesh, k));
   std::vector<int> vertex_map(mesh.positions.size());
   for (size_t i = 0; i < vertex_map.size(); ++i) vertex_map[i] = int(i);
   Far::PrimvarRefinerReal<double> primvar(*refiner);
@@ -229,6 +242,7 @@ RefinedMesh refine_uniformly(const MeshDesc& mesh, int level) {
       };
       if (with_rho) out.corner_reflectance.push_back(at(&CornerColours::reflectance));
       if (with_emission) out.corner_emission.push_back(at(&CornerColours::emission));
+      if (with_uv) out.corner_uv.push_back(at(&CornerColours::uv));
     }
     int parent = f;
     for (int l = level; l > 0; --l) parent = refiner->GetLevel(l).GetFaceParentFace(parent);
@@ -297,11 +311,11 @@ RefinedMesh split_faces(const MeshDesc& mesh, const std::vector<int>& levels) {
   auto split = [&](const Piece& piece, int steps, int face) {
     std::vector<int> grid((steps + 1) * (steps + 1));
     auto along = [&](const Side& s, int i) { return point_on(s.a, s.b, s.from + (s.to - s.from) * i / steps); };
-    dvec3 corner[4], corner_normal[4], rho[4], emission[4];
+    dvec3 corner[4], corner_normal[4], rho[4], emission[4], uv[4];
     for (int c = 0; c < 4; ++c) {
       corner[c] = out.positions[piece.corner[c]];
       corner_normal[c] = normals.empty() ? dvec3(0.0) : normals[piece.corner[c]];
-      rho[c] = piece.colour[c].reflectance, emission[c] = piece.colour[c].emission;
+      rho[c] = piece.colour[c].reflectance, emission[c] = piece.colour[c].emission, uv[c] = piece.colour[c].uv;
     }
     for (int j = 0; j <= steps; ++j)
       for (int i = 0; i <= steps; ++i) {
@@ -320,16 +334,18 @@ RefinedMesh split_faces(const MeshDesc& mesh, const std::vector<int>& levels) {
       for (int i = 0; i < steps; ++i) {
         const int g[4][2] = {{i, j}, {i + 1, j}, {i + 1, j + 1}, {i, j + 1}};
         std::array<int, 4> quad;
-        std::array<dvec3, 4> quad_rho, quad_emission;
+        std::array<dvec3, 4> quad_rho, quad_emission, quad_uv;
         for (int c = 0; c < 4; ++c) {
           quad[c] = grid[g[c][1] * (steps + 1) + g[c][0]];
           double u = double(g[c][0]) / steps, w = double(g[c][1]) / steps;
           quad_rho[c] = bilinear(rho, u, w), quad_emission[c] = bilinear(emission, u, w);
+          quad_uv[c] = bilinear(uv, u, w);
         }
         out.quads.push_back(quad);
         out.quad_face.push_back(face);
         if (with_rho) out.corner_reflectance.push_back(quad_rho);
         if (with_emission) out.corner_emission.push_back(quad_emission);
+        if (!mesh.corner_uv.empty()) out.corner_uv.push_back(quad_uv);
       }
   };
 
@@ -338,10 +354,7 @@ RefinedMesh split_faces(const MeshDesc& mesh, const std::vector<int>& levels) {
     int n = mesh.face_sizes[f];
     const int* v = &mesh.face_vertices[offset];
     std::vector<CornerColours> colour(n);
-    for (int k = 0; k < n; ++k) {
-      if (!mesh.corner_reflectance.empty()) colour[k].reflectance = mesh.corner_reflectance[offset + k];
-      if (!mesh.corner_emission.empty()) colour[k].emission = mesh.corner_emission[offset + k];
-    }
+    for (int k = 0; k < n; ++k) colour[k] = corner_colours(mesh, offset + k);
     offset += n;
     int level = levels[f];
     if (n == 4) {
@@ -437,6 +450,7 @@ RefinedMesh split_cells(const RefinedMesh& base, const std::vector<QuadCell>& ce
   out.normals = base.normals;
   out.input_vertex = base.input_vertex;
   bool with_rho = !base.corner_reflectance.empty(), with_emission = !base.corner_emission.empty();
+  bool with_uv = !base.corner_uv.empty();
   auto add_vertex = [&](const dvec3& p, const dvec3& n) {
     out.positions.push_back(p);
     if (!out.normals.empty()) out.normals.push_back(unit_or_zero(n));
@@ -481,18 +495,20 @@ RefinedMesh split_cells(const RefinedMesh& base, const std::vector<QuadCell>& ce
                                        {(cell.i + 1) * step, (cell.j + 1) * step},
                                        {cell.i * step, (cell.j + 1) * step}};
     std::array<int, 4> quad;
-    std::array<dvec3, 4> rho, emission;
+    std::array<dvec3, 4> rho, emission, uv;
     for (int k = 0; k < 4; ++k) {
       long long u = corner_uv[k][0], v = corner_uv[k][1];
       quad[k] = vertex_at(cell.quad, u, v);
       double s = double(u) / kWhole, t = double(v) / kWhole;
       if (with_rho) rho[k] = bilinear(base.corner_reflectance[cell.quad].data(), s, t);
       if (with_emission) emission[k] = bilinear(base.corner_emission[cell.quad].data(), s, t);
+      if (with_uv) uv[k] = bilinear(base.corner_uv[cell.quad].data(), s, t);
     }
     out.quads.push_back(quad);
     out.quad_face.push_back(base.quad_face[cell.quad]);
     if (with_rho) out.corner_reflectance.push_back(rho);
     if (with_emission) out.corner_emission.push_back(emission);
+    if (with_uv) out.corner_uv.push_back(uv);
   }
   return out;
 }

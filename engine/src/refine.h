@@ -17,9 +17,9 @@ struct RefinedMesh {
   std::vector<std::array<int, 4>> quads;  // counter-clockwise; a triangle repeats its last vertex
   std::vector<int> quad_face;             // input face each quad came from
   std::vector<int> input_vertex;          // input vertex -> refined vertex at the same place
-  // Per quad corner, MeshDesc::corner_reflectance and corner_emission interpolated linearly across
-  // each input face; empty when the mesh has none.
-  std::vector<std::array<dvec3, 4>> corner_reflectance, corner_emission;
+  // Per quad corner, MeshDesc::corner_reflectance, corner_emission and corner_uv (as (u, v, 0))
+  // interpolated linearly across each input face; empty when the mesh has none.
+  std::vector<std::array<dvec3, 4>> corner_reflectance, corner_emission, corner_uv;
 };
 
 // Per input face, the bilinear steps refine_mesh takes it through. Catmull-Clark takes the mesh's

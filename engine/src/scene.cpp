@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <utility>
 
 namespace radiosity {
 
@@ -19,6 +20,23 @@ void check_reflectance(const dvec3& rho, const std::string& who) {
   for (int c = 0; c < 3; ++c)
     if (rho[c] < 0 || rho[c] >= 1)
       fail(who + ": reflectance must be in [0, 1) (a surface cannot reflect all light it gets)");
+}
+
+// An image of width x height texels (rows from the bottom) read bilinearly at (x, y) in texels,
+// their centres at whole numbers: the columns repeat, the rows repeat or hold at the ends.
+template <class T>
+T bilinear_texel(const std::vector<T>& texels, int width, int height, double x, double y, bool rows_repeat) {
+  auto wrap = [](double i, int n) {  // fmod is exact, however far from 0
+    double r = std::fmod(i, double(n));
+    return std::clamp(int(r < 0 ? r + n : r), 0, n - 1);
+  };
+  double fx = std::floor(x), fy = std::floor(y);
+  double tx = x - fx, ty = y - fy;
+  int c0 = wrap(fx, width), c1 = (c0 + 1) % width;
+  int r0 = rows_repeat ? wrap(fy, height) : std::clamp(int(fy), 0, height - 1);
+  int r1 = rows_repeat ? (r0 + 1) % height : std::clamp(int(fy) + 1, 0, height - 1);
+  auto texel = [&](int c, int r) { return texels[size_t(r) * width + c]; };
+  return (1 - ty) * ((1 - tx) * texel(c0, r0) + tx * texel(c1, r0)) + ty * ((1 - tx) * texel(c0, r1) + tx * texel(c1, r1));
 }
 
 std::string mesh_label(const MeshDesc& m, size_t i) {
@@ -68,6 +86,12 @@ void validate_mesh(const MeshDesc& m, size_t index, size_t material_count) {
   if (!m.corner_emission.empty() && m.corner_emission.size() != corners)
     fail(who + ": " + std::to_string(corners) + " face corners but " + std::to_string(m.corner_emission.size()) +
          " corner emissions");
+  if (!m.corner_uv.empty() && m.corner_uv.size() != corners)
+    fail(who + ": " + std::to_string(corners) + " face corners but " + std::to_string(m.corner_uv.size()) +
+         " corner UVs");
+  for (size_t k = 0; k < m.corner_uv.size(); ++k)
+    if (!std::isfinite(m.corner_uv[k].x) || !std::isfinite(m.corner_uv[k].y))
+      fail(who + ", face corner " + std::to_string(k) + ": NaN or infinite UV");
   for (size_t k = 0; k < m.corner_emission.size(); ++k) {
     const dvec3& e = m.corner_emission[k];
     if (!finite(e) || e.x < 0 || e.y < 0 || e.z < 0)
@@ -87,7 +111,16 @@ void validate_material(const Material& m, size_t index) {
     for (int c = 0; c < 3; ++c)
       if (lobe[c] < 0 || lobe[c] > 1) fail(who + ": " + name + " must be in [0, 1]");
   }
-  dvec3 total = m.reflectance + m.transmittance + m.glass + m.specular;
+  if (m.alpha) {
+    const AlphaMap& a = *m.alpha;
+    if (a.width < 1 || a.height < 1 || a.texels.size() != size_t(a.width) * a.height)
+      fail(who + ": alpha map: " + std::to_string(a.texels.size()) + " texels for " + std::to_string(a.width) +
+           " x " + std::to_string(a.height));
+    for (float t : a.texels)
+      if (!(t >= 0 && t <= 1)) fail(who + ": alpha map: a texel is NaN or outside [0, 1]");
+  }
+  // With an alpha map, the transparent part passes where the surface is not: on average 1 - mean.
+  dvec3 total = m.reflectance + (m.alpha ? 1 - m.alpha->mean() : 1.0) * m.transmittance + m.glass + m.specular;
   for (int c = 0; c < 3; ++c)
     if (total[c] > 1 + 1e-9)
       fail(who + ": reflectance, transmittance, glass and specular add up to more than 1 (it would make light)");
@@ -124,6 +157,17 @@ void SceneDesc::validate() const {
   validate_world(world);
 }
 
+float AlphaMap::at(double u, double v) const {
+  return float(bilinear_texel(texels, width, height, u * width - 0.5, v * height - 0.5, true));
+}
+
+AlphaMap::AlphaMap(int width, int height, std::vector<float> texels)
+    : width(width), height(height), texels(std::move(texels)) {
+  double sum = 0.0;
+  for (float t : this->texels) sum += t;
+  if (!this->texels.empty()) mean_ = sum / double(this->texels.size());
+}
+
 WorldMap WorldMap::uniform(const dvec3& radiance) {
   WorldMap m;
   m.texels[0] = radiance;
@@ -135,12 +179,7 @@ dvec3 WorldMap::at(const dvec3& d) const {
   constexpr double kPi = 3.14159265358979323846;
   double x = (0.5 - std::atan2(d.y, d.x) / (2 * kPi)) * width - 0.5;
   double y = (0.5 + std::asin(std::clamp(d.z, -1.0, 1.0)) / kPi) * height - 0.5;
-  double fx = std::floor(x), fy = std::floor(y);
-  double tx = x - fx, ty = y - fy;
-  int c0 = ((int(fx) % width) + width) % width, c1 = (c0 + 1) % width;  // columns wrap round
-  int r0 = std::clamp(int(fy), 0, height - 1), r1 = std::clamp(int(fy) + 1, 0, height - 1);
-  auto texel = [&](int c, int r) { return texels[size_t(r) * width + c]; };
-  return (1 - ty) * ((1 - tx) * texel(c0, r0) + tx * texel(c1, r0)) + ty * ((1 - tx) * texel(c0, r1) + tx * texel(c1, r1));
+  return bilinear_texel(texels, width, height, x, y, false);  // round the columns, held at the poles
 }
 
 dvec3 WorldMap::direction(int column, int row) const {

@@ -17,12 +17,16 @@ double fresnel_reflectance(double cos_i, double n) {
 }
 
 bool optics_differ(const Material& a, const Material& b) {
+  bool same_alpha = a.alpha == b.alpha || (a.alpha && b.alpha && *a.alpha == *b.alpha);
   return a.transmittance != b.transmittance || a.glass != b.glass || a.ior != b.ior || a.specular != b.specular ||
-         a.roughness != b.roughness;
+         a.roughness != b.roughness || !same_alpha;
 }
 
-Transmission::Transmission(const Material& m, bool sheet) : ior(float(m.ior)), sheet(sheet) {
+Transmission::Transmission(const Material& m, bool sheet, const dvec3* corner_uv)
+    : ior(float(m.ior)), sheet(sheet), alpha(m.alpha), has_uv(m.alpha && corner_uv) {
   for (int k = 0; k < 3; ++k) transmittance[k] = float(m.transmittance[k]), glass[k] = float(m.glass[k]);
+  if (has_uv)
+    for (int c = 0; c < 4; ++c) uv[c] = {float(corner_uv[c].x), float(corner_uv[c].y)};
 }
 
 bool Transmission::passes() const {
@@ -31,14 +35,24 @@ bool Transmission::passes() const {
   return false;
 }
 
-std::array<float, 3> Transmission::at(double cos_i) const {
+std::array<float, 3> Transmission::at(double cos_i) const { return passing(cos_i, alpha ? 1.0 - alpha->mean() : 1.0); }
+
+std::array<float, 3> Transmission::at(double cos_i, float u, float v) const {
+  if (!has_uv) return at(cos_i);
+  // Embree parametrises a quad as the bilinear patch of its corners: so are the corners' UVs read.
+  float tu = (1 - u) * (1 - v) * uv[0][0] + u * (1 - v) * uv[1][0] + u * v * uv[2][0] + (1 - u) * v * uv[3][0];
+  float tv = (1 - u) * (1 - v) * uv[0][1] + u * (1 - v) * uv[1][1] + u * v * uv[2][1] + (1 - u) * v * uv[3][1];
+  return passing(cos_i, 1.0 - alpha->at(tu, tv));
+}
+
+std::array<float, 3> Transmission::passing(double cos_i, double open) const {
   double pass = 0.0;
   if (glass[0] > 0 || glass[1] > 0 || glass[2] > 0) {
     double r = fresnel_reflectance(cos_i, ior);
     pass = sheet ? (1.0 - r) / (1.0 + r) : 1.0 - r;
   }
   std::array<float, 3> rgb;
-  for (int k = 0; k < 3; ++k) rgb[k] = float(transmittance[k] + glass[k] * pass);
+  for (int k = 0; k < 3; ++k) rgb[k] = float(open * transmittance[k] + glass[k] * pass);
   return rgb;
 }
 

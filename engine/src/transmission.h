@@ -11,6 +11,7 @@
 #include <embree3/rtcore.h>
 
 #include <array>
+#include <memory>
 #include <vector>
 
 namespace radiosity {
@@ -35,12 +36,24 @@ struct Transmission {
   // interface takes R at the ray's own angle: through parallel faces the light leaves at the angle
   // it came in, and the reflectance out of the glass at the refracted angle is the one into it.
   bool sheet = true;
+  // The material's alpha map (null: none) and where the patch's corners read it. The transmittance
+  // passes where the surface is not: 1 - alpha at the crossing's place, or 1 - the map's mean where
+  // the mesh has no UVs.
+  std::shared_ptr<const AlphaMap> alpha;
+  std::array<std::array<float, 2>, 4> uv{};
+  bool has_uv = false;
 
   Transmission() = default;
-  Transmission(const Material& m, bool sheet);
+  // `uv`: the patch's four corners' (u, v, 0), or null.
+  Transmission(const Material& m, bool sheet, const dvec3* uv = nullptr);
   bool passes() const;  // some channel passes light
-  // What passes, per channel, at a crossing at cosine `cos_i` to the normal.
+  // What passes, per channel, at a crossing at cosine `cos_i` to the normal: on average over the
+  // patch (its alpha map's mean), or at Embree's (u, v) on the patch's quad.
   std::array<float, 3> at(double cos_i) const;
+  std::array<float, 3> at(double cos_i, float u, float v) const;
+
+ private:
+  std::array<float, 3> passing(double cos_i, double open) const;  // transmittance times `open`
 };
 
 // The panes each ray of a stream crossed, per ray id (below the capacity it was made for), and what

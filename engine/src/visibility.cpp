@@ -121,7 +121,8 @@ void Visibility::filter_panes(const RTCFilterFunctionNArguments* args) {
             RTCRayN_dir_z(args->ray, args->N, i));
     dvec3 n(RTCHitN_Ng_x(args->hit, args->N, i), RTCHitN_Ng_y(args->hit, args->N, i),
             RTCHitN_Ng_z(args->hit, args->N, i));
-    std::array<float, 3> rgb = through.at(glm::dot(d, n) / std::sqrt(glm::dot(d, d) * glm::dot(n, n)));
+    std::array<float, 3> rgb = through.at(glm::dot(d, n) / std::sqrt(glm::dot(d, d) * glm::dot(n, n)),
+                                          RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i));
     // Too little passes in every channel to be worth tracing on for: the ray stops.
     if (std::max({rgb[0], rgb[1], rgb[2]}) < 1e-4f) continue;
     if (f.crossings->add(RTCRayN_id(args->ray, args->N, i), RTCRayN_tfar(args->ray, args->N, i), panes.object,

@@ -624,9 +624,10 @@ def test_lobes_that_would_make_light_are_scaled_to_one_and_named(export, empty_s
     assert any("scaled down to one" in w for w in a.warnings)
 
 
-def test_a_mix_factor_from_an_image_alpha_goes_as_its_mean(export, empty_scene):
-    """Leaves: Mix(Transparent, Diffuse) by an image's alpha. The engine takes one value a material:
-    the alpha's mean, named as approximated."""
+def test_a_mix_factor_from_an_image_alpha_the_engine_cannot_read_by_place_goes_as_its_mean(export, empty_scene):
+    """Mix(Transparent, Diffuse) by an image's alpha that does not repeat (Extend): the engine reads
+    alpha by place only as Repeat does, so this one goes as one value a material, the alpha's mean,
+    named as approximated (tests/addon/test_alpha.py: the Repeat one, read by place)."""
     mixed, _ = shaded_plane("ShaderNodeBsdfDiffuse")
     mix = link_mix(mixed, ("ShaderNodeBsdfTransparent", {"Color": (1, 1, 1, 1)}),
                    ("ShaderNodeBsdfDiffuse", {"Color": (0.5, 0.5, 0.5, 1)}), 1.0)
@@ -634,11 +635,12 @@ def test_a_mix_factor_from_an_image_alpha_goes_as_its_mean(export, empty_scene):
     image.pixels.foreach_set(np.array([[1, 1, 1, a] for a in (0.0, 1.0, 0.25, 0.75)], np.float32).ravel())
     tex = mixed.node_tree.nodes.new("ShaderNodeTexImage")
     tex.image = image
+    tex.extension = 'EXTEND'
     mixed.node_tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
     m = exported(export, mixed)
     np.testing.assert_allclose(m.transmittance, (0.5, 0.5, 0.5), rtol=1e-6)
     np.testing.assert_allclose(m.reflectance, (0.25, 0.25, 0.25), rtol=1e-6)
-    assert export.MEAN_FACTOR in m.notes
+    assert export.MEAN_FACTOR in m.notes and m.coverage is None
 
 
 def test_the_engine_takes_the_lobes_and_a_lobe_change_is_a_material_change(addon, open_sample):
@@ -658,7 +660,7 @@ def test_the_engine_takes_the_lobes_and_a_lobe_change_is_a_material_change(addon
 
 
 # ----------------------------------------------------------------------------- effect plan rows
-OPTICS_ROWS = {"Transmission", "Refraction (direction kept)", "Frosted glass", "Mix factors as means",
+OPTICS_ROWS = {"Transmission", "Refraction (direction kept)", "Frosted glass", "Mix factors as means", "Alpha cut-outs",
                "Mirrors (1 plane)", "Mirrors (2 planes)", "Rough reflection as diffuse", "Curved mirrors",
                "Mirror to mirror", "World in mirrors", "Glass reflections", "Principled specular"}
 
@@ -698,12 +700,18 @@ def test_glass_metal_and_alpha_rows_fit_the_sidebar(addon, empty_scene):
     tex = leaves.node_tree.nodes.new("ShaderNodeTexImage")
     tex.image = bpy.data.images.new("Leaf", 2, 2, alpha=True)
     tex.image.pixels.foreach_set(np.tile(np.float32([1, 1, 1, 0.5]), 4))
+    tex.extension = 'EXTEND'   # not read by place: as its mean
     leaves.node_tree.links.new(tex.outputs["Alpha"], mix.inputs["Fac"])
     mirror, _ = shaded_plane("ShaderNodeBsdfGlossy", Roughness=0.0)
     bpy.ops.mesh.primitive_plane_add(location=(0, 0, 1), rotation=(1.0, 0, 0))  # a second plane of it
     bpy.context.object.data.materials.append(mirror)
     bpy.ops.mesh.primitive_uv_sphere_add(location=(3, 0, 0))                      # curved
     bpy.context.object.data.materials.append(mirror)
+    card, _ = shaded_plane("ShaderNodeBsdfPrincipled")                           # alpha read by place
+    card.name = "Card"
+    tex = card.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = leaves.node_tree.nodes["Image Texture"].image
+    card.node_tree.links.new(tex.outputs["Alpha"], card.node_tree.nodes["Principled BSDF"].inputs["Alpha"])
     world = bpy.data.worlds.new("Sky")
     world.use_nodes = True
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.1, 0.1, 0.1, 1.0)
@@ -717,9 +725,12 @@ def test_glass_metal_and_alpha_rows_fit_the_sidebar(addon, empty_scene):
     assert rows["Rough reflection as diffuse"][1].endswith("(ShaderNodeBsdfPrincipled on Plane.001)")
     assert rows["Refraction (direction kept)"] == (effects.APPROXIMATED, "glass passing light on straight, not "
                                                    "bent (ShaderNodeBsdfGlass on Plane)")
-    assert rows["Transmission"][1].endswith("(ShaderNodeBsdfGlass on Plane; ShaderNodeBsdfDiffuse on Plane.002)")
+    assert rows["Transmission"][1].endswith("(ShaderNodeBsdfGlass on Plane; ShaderNodeBsdfDiffuse on Plane.002; "
+                                            "Card on Plane.005)")
     assert rows["Principled specular"][0] == effects.LEFT_OUT and rows["Glass reflections"][0] == effects.LEFT_OUT
     assert rows["Mix factors as means"][1].endswith("(ShaderNodeBsdfDiffuse on Plane.002)")
+    assert rows["Alpha cut-outs"] == (effects.SIMULATED, "light through the clear parts of an image's alpha (a Mix "
+                                      "with a Transparent BSDF, a Principled Alpha), ray by ray (Card on Plane.005)")
     cut = []
     for short in rows:
         panel.fits(short, panel.WIDTHS["sidebar"] - panel.PAD - panel.CLIP - panel.ICON, "effects", cut)

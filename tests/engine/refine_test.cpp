@@ -1,6 +1,6 @@
 // Bilinear refinement with a level per face (refine.cpp: split_faces): faces of different levels
 // meet without gaps or doubled points, and what is interpolated across a face (corner colours,
-// smooth normals) is interpolated as the uniform refinement does.
+// smooth normals, UVs) is interpolated as the uniform refinement does.
 #include "refine.h"
 
 #include <gtest/gtest.h>
@@ -81,6 +81,38 @@ TEST(Refine, CornerColoursAndSmoothNormalsAreInterpolatedInEachFace) {
   }
   EXPECT_GT(compared, 9);  // the tile's 9 points, each seen from its quads
   for (const dvec3& n : r.normals) EXPECT_NEAR(glm::length(n), 1.0, 1e-12);
+}
+
+TEST(Refine, CornerUvsFollowTheCornersEveryWayAMeshIsSplit) {
+  // UVs an affine function of the position at every input corner stay that function of the
+  // position at every refined corner: they are interpolated with the positions' own weights.
+  MeshDesc m = strip_tile_pentagon();
+  auto uv_of = [](const dvec3& p) { return dvec2(0.5 * p.x + 0.1 - 0.2 * p.z, 0.3 * p.y - 0.2 + p.z); };
+  for (int v : m.face_vertices) m.corner_uv.push_back(uv_of(m.positions[v]));
+  auto expect_uvs = [&](const RefinedMesh& r, const char* how) {
+    ASSERT_EQ(r.corner_uv.size(), r.quads.size()) << how;
+    for (size_t q = 0; q < r.quads.size(); ++q)
+      for (int c = 0; c < 4; ++c) {
+        dvec2 want = uv_of(r.positions[r.quads[q][c]]);
+        EXPECT_NEAR(r.corner_uv[q][c].x, want.x, 1e-12) << how;
+        EXPECT_NEAR(r.corner_uv[q][c].y, want.y, 1e-12) << how;
+        EXPECT_EQ(r.corner_uv[q][c].z, 0.0) << how;
+      }
+  };
+  RefinedMesh split = refine_mesh(m, face_levels(m, 0.25));
+  expect_uvs(split, "faces split to levels of their own");
+  expect_uvs(refine_mesh(m, std::vector<int>(3, 2)), "OpenSubdiv's uniform steps");
+  std::vector<QuadCell> cells;
+  for (int q = 0; q < int(split.quads.size()); ++q) {
+    QuadCell whole{q, 0, 0, 0};
+    if (q % 3) cells.push_back(whole);
+    else for (const QuadCell& c : children(whole)) cells.push_back(c);
+  }
+  expect_uvs(split_cells(split, cells), "the light's cells");
+  MeshDesc quads = m;  // the strip and the tile as given
+  quads.face_sizes = {4, 4}, quads.face_vertices.resize(8), quads.face_materials = {0, 0};
+  quads.corner_reflectance.resize(8), quads.corner_uv.resize(8);
+  expect_uvs(refine_mesh(quads, {0, 0}), "faces as given");
 }
 
 }  // namespace

@@ -6,13 +6,33 @@
 
 #include <glm/glm.hpp>
 
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace radiosity {
 
 using glm::dmat4;
+using glm::dvec2;
 using glm::dvec3;
+
+// How much of a surface is there, by place: an image texture's alpha (a leaf card, a lace curtain).
+// Texels row by row from the bottom (Blender's pixel order), u across and v up, each in [0, 1];
+// read bilinearly between texel centres, repeating both ways (the Image Texture's default Repeat).
+struct AlphaMap {
+  AlphaMap(int width, int height, std::vector<float> texels);
+  int width = 0, height = 0;
+  std::vector<float> texels;
+
+  float at(double u, double v) const;
+  double mean() const { return mean_; }  // over the image: what the surface covers on average
+  bool operator==(const AlphaMap& o) const {
+    return width == o.width && height == o.height && texels == o.texels;
+  }
+
+ private:
+  double mean_ = 1.0;
+};
 
 struct Material {
   dvec3 reflectance{0.8};  // diffuse albedo per channel, each in [0, 1)
@@ -24,6 +44,10 @@ struct Material {
   double ior = 1.45;
   dvec3 specular{0.0};       // mirror colour (Glossy BSDF, Principled metal)
   double roughness = 0.5;    // of the specular lobe, as Blender's Roughness input
+  // Where the surface is and where it is not, on a mesh with corner_uv: a ray crossing it at a place
+  // of alpha a passes (1 - a) transmittance there. The other lobes hold for the whole surface, as
+  // the caller scaled them (by the mean alpha). Null: transmittance everywhere.
+  std::shared_ptr<const AlphaMap> alpha;
 };
 
 enum class Refinement {
@@ -58,6 +82,9 @@ struct MeshDesc {
   std::vector<dvec3> corner_reflectance;
   // The same for the emitted radiance (an emission texture). Empty: the materials'.
   std::vector<dvec3> corner_emission;
+  // Per face corner: texture coordinates, where its materials' alpha maps are read (Material::alpha).
+  // Empty: such materials pass their mean.
+  std::vector<dvec2> corner_uv;
   bool smooth(int face) const {
     return face_smooth.empty() ? refine == Refinement::CatmullClark && level > 0 : face_smooth[face] != 0;
   }
@@ -99,7 +126,7 @@ struct SceneDesc {
   WorldMap world;
 
   // Throws std::invalid_argument naming the object and the fault for input the engine cannot take
-  // (NaN/inf, bad indices, reflectance outside [0, 1), negative emission).
+  // (NaN/inf, bad indices, reflectance outside [0, 1), negative emission, alpha outside [0, 1]).
   void validate() const;
 };
 
