@@ -220,16 +220,20 @@ class Tracer:
         return values.mean(0), values.std(0) / np.sqrt(len(values))
 
 
+def optics(scene):
+    """Whether `scene` is an optics sample, whose references optics_references.py makes."""
+    return scene in optics_references.OPTIC
+
+
 def cycles_path(scene, frame):
     """The scene's Cycles corners: make_references' file, or optics_references' for the optics samples."""
-    path = reference.path_of(scene, frame)
-    return path if os.path.exists(path) else optics_references.path_of(scene)
+    return optics_references.path_of(scene) if optics(scene) else reference.path_of(scene, frame)
 
 
 def save(scene, frame, name, values, errors, inset, paths):
     """Adds one object's traced corners to the scene's _traced.npz beside its Cycles corners (a lock:
     objects run side by side)."""
-    path = cycles_path(scene, frame).replace(".npz", "_traced.npz")
+    path = optics_references.traced_path_of(scene) if optics(scene) else reference.traced_path_of(scene, frame)
     with open(path + ".lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         data = reference.read_npz(path) if os.path.exists(path) else {}
