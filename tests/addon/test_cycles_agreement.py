@@ -42,8 +42,8 @@ reference is the limit: trace_corner.py's where the sample is traced (mirror_roo
 optics/mirror_room_traced.npz, the tracer taking its area lamp and its mirror), else Cycles' inset
 corners. At a room's concave corner the inset bake reads the value 1-2 cm in, which has risen fast
 from the corner: mirror_room's inset corners are 4% RMS from the traced limit (up to 11% over it at
-the ceiling's corners, which no direct light reaches), where Cycles' own corners are within 0.8%. Their share tests
-check the light the pane or the mirror carries: each scene baked again with it black
+the ceiling's corners, which no direct light reaches), where Cycles' own corners are within 0.8%.
+Their share tests check the light the pane or the mirror carries: each scene baked again with it black
 (optics_references.blacken), by us and by Cycles; our change must be Cycles' change within 10% of it
 (relative RMS of the two changes).
 """
