@@ -31,8 +31,8 @@ Errors: reference.relative_rms. corner_rms: over the non-emitting face corners a
 engine's refined patch corners against the 4,096-spp dense reference interpolated there, as
 compare_engine.py does; cycles_dense, its grid points against the same reference's. limit_rms:
 the corners against the limit reference (Cycles' corners off junctions, trace_corner.py's on them:
-reference.limit_reference), where the scene is traced; for the optics samples Cycles' inset bake
-(a little inside the face) stands on the junctions, as test_cycles_agreement.py judges them. A row
+reference.limit_reference), where the scene is traced; for the optics samples not traced Cycles'
+inset bake (a little inside the face) stands on the junctions, as test_cycles_agreement.py judges them. A row
 "cycles_converged" gives the reference corners' own limit_rms, the floor that no sample count of
 Cycles' vertex bake goes under.
 Runs under 10 s are repeated (3 in all) and the median time kept.
@@ -81,8 +81,8 @@ NOTES = """Relative RMS error against cached Cycles references (tests/cycles_ref
 non-emitting cage corners (what the `Radiosity` attribute holds) against Cycles' 262,144-spp vertex
 bake; dense: our refined patch corners (cycles_dense: Cycles' 0.25 m grid points) against a
 4,096-spp dense bake; limit: the corners against the limit reference (Cycles off junctions, a path
-tracer 1e-5 inside the face on them; traced scenes only; window_room and mirror_room: Cycles a little
-inside the face on them). The optics samples are judged against their own references (glossy and
+tracer 1e-5 inside the face on them; traced scenes only; window_room: Cycles a little inside the face
+on them). The optics samples are judged against their own references (glossy and
 transmission bounces on; 1,048,576 and 524,288 spp), over every corner but the pane's or the mirror's,
 and Cycles bakes them with the same bounces on. Time: export + solve + write-back for ours
 (median of 3 under 10 s), the bake operator for Cycles; `cycles_converged` is the reference bake
@@ -125,6 +125,13 @@ def load_reference(name, frame):
     return reference.load(name, frame)
 
 
+def load_traced(name, frame):
+    """trace_corner.py's corners of the scene (the optics samples' beside their references), or None."""
+    if name in optics_references.OPTIC:
+        return optics_references.load_traced(name)
+    return reference.load_traced(name, frame)
+
+
 def optic(name):
     """The objects whose corners no error counts: the optics sample's pane or mirror."""
     return (optics_references.OPTIC[name],) if name in optics_references.OPTIC else ()
@@ -156,9 +163,9 @@ def corner_table(scene, read, ref, skip=()):
 def limit_error(name, values, r, where, kinds, ref, traced):
     """Relative RMS of `values` against the limit reference at the corners `where` (r: Cycles'
     corners there, kinds: classify's), as a CSV field; "" where the scene is not traced. On the
-    junctions of the optics samples: Cycles' inset corners (`ref`)."""
+    junctions of an optics sample not traced: Cycles' inset corners (`ref`)."""
     objects = dict.fromkeys(o for o, _ in where)
-    if name in optics_references.OPTIC:
+    if name in optics_references.OPTIC and traced is None:
         per = {o: reference.corner_reference(ref, o, inset=True) for o in objects}
     else:
         per = {o: reference.traced_reference(traced, o) for o in objects}
@@ -171,7 +178,7 @@ def limit_error(name, values, r, where, kinds, ref, traced):
 
 def cycles_converged(name, frame):
     """The corner reference's own corners against the limit reference: Cycles' floor there."""
-    ref, traced = load_reference(name, frame), reference.load_traced(name, frame)
+    ref, traced = load_reference(name, frame), load_traced(name, frame)
     scene = open_scene(name, frame)
     _, r, where = corner_table(scene, None, ref, optic(name))
     return dict(scene=label(name, frame), method="cycles_converged", setting=str(int(ref["samples_corner"])),
@@ -242,7 +249,7 @@ def run_ours(pkg, name, frame, preset, max_seconds):
     v, r, where = corner_table(scene, lambda ob: pkg.writeback.read_mesh(ob.data)[:, :3], ref, optic(name))
     corner = reference.relative_rms(v, r)
     kinds = classify(scene, where)
-    limit = limit_error(name, v, r, where, kinds, ref, reference.load_traced(name, frame))
+    limit = limit_error(name, v, r, where, kinds, ref, load_traced(name, frame))
     dense = "" if name in optics_references.OPTIC else f"{dense_error(job, ref):.5f}"
     st = job.stats
     detail = dict(values=v, ref=r, where=where, kinds=kinds)
@@ -294,7 +301,7 @@ def run_cycles(name, frame, spp):
     load1 = os.getloadavg()[0]
     v, r, where = corner_table(scene, read_attr, ref, optic(name))
     corner = reference.relative_rms(v, r)
-    limit = limit_error(name, v, r, where, classify(scene, where), ref, reference.load_traced(name, frame))
+    limit = limit_error(name, v, r, where, classify(scene, where), ref, load_traced(name, frame))
     seconds = median_time(lambda: cycles_bake(open_scene(name, frame), spp, optics=optics), seconds)
     n = len(v)
     note = f"{n} corners" + ("; includes the reference's own error (README)" if spp >= 1024 else "")

@@ -13,7 +13,8 @@ bounces on, caustics allowed, no glossy blur). Layout: make_references' "<name>:
 the samples as they are (not the variants) also make_references' "<name>:corner_inset" of every mesh
 but the pane or mirror (an inset copy of it would stack a second pane on it), the reference of
 corners on a junction (DESIGN.md: judged a little inside their face). --inset-only bakes those into
-the existing files.
+the existing files. trace_corner.py adds <name>_traced.npz beside them (load_traced): the limit
+reference of the corners on a junction.
 The files sit in their own folder: test_references.py checks the sample scenes' own files, and a
 variant has no .blend of its own. --seed S (noise estimates) writes <name>_seedS.npz beside them.
 """
@@ -47,6 +48,20 @@ def blacken(material):
 
 def path_of(name, seed=0):
     return os.path.join(OUT, name + (f"_seed{seed}" if seed else "") + ".npz")
+
+
+def traced_path_of(name):
+    """trace_corner.py's file of sample `name`: its junction corners a hair inside their faces."""
+    return path_of(name).replace(".npz", "_traced.npz")
+
+
+def load_traced(name):
+    """{key: array} of traced_path_of(name), or None where the sample is not traced."""
+    path = traced_path_of(name)
+    if not os.path.exists(path):
+        return None
+    with np.load(path) as z:
+        return {k: z[k] for k in z.files}
 
 
 # sample -> its pane's or mirror's object (and material) name

@@ -4,18 +4,24 @@ Cycles' corner values and ours where they disagree.
     blender -b --factory-startup --python tests/cycles_reference/trace_corner.py -- SCENE OBJECT LOOP
         [--up H] [--inset F] [--paths N] [--frame F]
 
-The scene is what the add-on exports at that frame (its meshes' cages, materials and emission and
-its point lamps of radius 0, in the engine's units; the world is not traced: the Cornell box and
-the animated room have none). The point is the corner of loop LOOP of OBJECT, raised H along +z or
+The scene is what the add-on exports at that frame (its meshes' cages, materials and emission, its
+point lamps of radius 0 and rectangular area lamps, in the engine's units; the world is not traced:
+the scenes traced have none). A smooth mirror (a specular colour at roughness 0.05 or less over no
+diffuse part, as mirror_room's Glossy BSDF) reflects along the mirrored direction, times its colour,
+on both sides; light reaches a point by way of it only along such a path (a path leaving the mirror
+collects the lamps and emitters it meets), and lamps do not block rays (Cycles' lamps are not
+occluders). The point is the corner of loop LOOP of OBJECT, raised H along +z or
 moved F of the way to its face's centroid; it prints the radiance leaving it along its face's
 normal (the `Radiosity` contract), with its standard error, beside Cycles' cached corner value.
 Diffuse, both sides of every face reflect, emission two-sided, next-event estimation to the
 emitting faces and lamps, up to 64 bounces (a closed furnace at rho 0.8 within its noise of
 rho E / (1 - rho)), paths ending where they carry under 1e-6. LOOP `all` traces every
-non-emitting corner of OBJECT and adds them to SCENE[_fNNN]_traced.npz ("<object>:corner_traced"
+non-emitting corner of OBJECT and adds them to SCENE[_fNNN]_traced.npz (optics/mirror_room_traced.npz
+for the optics samples, whose Cycles corners are in optics/) ("<object>:corner_traced"
 and "<object>:corner_traced_error", (K,3) in loop order, NaN at emitting corners; "traced_inset",
 "traced_paths"): the reference at junctions, where Cycles' own corner value is ill-posed
-(reference.py: limit_reference).
+(reference.py: limit_reference). LOOP `junctions` does so for the corners on a junction only
+(reference.junction_faces), the only ones limit_reference takes, leaving the rest NaN.
 
 On cornell_box, 100,000 paths a corner (4-19 s each), where Cycles' corner is well-posed: Ceiling
 loop 5 0.2662 +- 0.0012 (Cycles 0.2663), ShortBox loop 7 1 mm down 0.0424 +- 0.0003 (0.0424),
@@ -41,46 +47,67 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "..", "addon"))
 from conftest import load_package  # noqa: E402
 import make_references  # noqa: E402
+import optics_references  # noqa: E402
 import reference  # noqa: E402
 from smooth_cube_walk import cosine_about  # noqa: E402
 
 
+MIRROR_ROUGHNESS = 0.05      # the engine's: a specular lobe this smooth is a mirror (docs/method.md)
+
+
 def triangles(sx):
-    """(T,3,3) world triangles of the visible meshes, and their (T,3) reflectance and emission."""
-    tris, rho, emission = [], [], []
+    """(T,3,3) world triangles of the visible meshes, and their (T,3) diffuse reflectance, emission
+    and mirror colour (0 where the face is no mirror)."""
+    tris, rho, emission, mirror = [], [], [], []
     for m in sx.visible_meshes:
         world = m.positions @ m.transform[:3, :3].T + m.transform[:3, 3]
         starts = np.concatenate(([0], np.cumsum(m.face_sizes)[:-1]))
         for f, (start, size) in enumerate(zip(starts, m.face_sizes)):
             ring = m.face_vertices[start:start + size]
             material = sx.materials[m.face_materials[f]]
+            specular = np.asarray(material.specular, float)
+            smooth = specular.max() > 0 and material.roughness <= MIRROR_ROUGHNESS
+            if smooth and np.max(material.reflectance) > 0:
+                raise SystemExit(f"trace_corner traces pure mirrors only ({m.name}: a diffuse part too)")
             for j in range(1, size - 1):
                 tris.append(world[[ring[0], ring[j], ring[j + 1]]])
                 rho.append(material.reflectance)
                 emission.append(material.emission)
-    return np.array(tris), np.array(rho, float), np.array(emission, float)
+                mirror.append(specular if smooth else np.zeros(3))
+    return np.array(tris), np.array(rho, float), np.array(emission, float), np.array(mirror, float)
 
 
-def point_lamps(sx):
-    """(L,3) positions and (L,3) intensities (W/sr) of the scene's lamps: point lamps of radius 0 only."""
-    lamps = [l for l in sx.lights if l.visible]
-    if any(l.kind != "point" or l.radius != 0 for l in lamps):
-        raise SystemExit("trace_corner traces point lamps of radius 0 only")
-    return (np.array([l.position for l in lamps], float).reshape(-1, 3),
-            np.array([l.intensity for l in lamps], float).reshape(-1, 3))
+def lamps(sx):
+    """The scene's lamps: point lamps of radius 0 as ((L,3) positions, (L,3) intensities, W/sr), and
+    rectangular area lamps as ((A,3) centres, (A,3) half axes u and v, (A,3) unit directions the light
+    travels, (A,3) radiances)."""
+    visible = [l for l in sx.lights if l.visible]
+    if any(not (l.kind == "point" and l.radius == 0 or l.kind == "area" and l.shape == "rect") for l in visible):
+        raise SystemExit("trace_corner traces point lamps of radius 0 and rectangular area lamps only")
+    points = [l for l in visible if l.kind == "point"]
+    areas = [l for l in visible if l.kind == "area"]
+
+    def rows(lights, key):
+        return np.array([getattr(l, key) for l in lights], float).reshape(-1, 3)
+    return ((rows(points, "position"), rows(points, "intensity")),
+            (rows(areas, "position"), rows(areas, "u_half_axis"), rows(areas, "v_half_axis"),
+             rows(areas, "direction"), rows(areas, "radiance")))
 
 
 class Tracer:
-    def __init__(self, tris, rho, emission, lamps, seed=7):
+    def __init__(self, tris, rho, emission, mirror, lamps, seed=7):
         self.v0, self.e1, self.e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
         n = np.cross(self.e1, self.e2)
         area = 0.5 * np.linalg.norm(n, axis=1)
         self.normal = n / np.linalg.norm(n, axis=1)[:, None]
-        self.rho, self.emission = rho, emission
+        self.rho, self.emission, self.mirror = rho, emission, mirror
+        self.is_mirror = mirror.max(1) > 0
         self.lights = np.nonzero(emission.sum(1) > 0)[0]
         self.light_area = area[self.lights].sum()
         self.light_p = area[self.lights] / self.light_area
-        self.lamp_position, self.lamp_intensity = lamps
+        (self.lamp_position, self.lamp_intensity), (self.area_centre, self.area_u, self.area_v,
+                                                      self.area_direction, self.area_radiance) = lamps
+        self.area_size = 4 * np.linalg.norm(np.cross(self.area_u, self.area_v), axis=1)
         self.rng = np.random.default_rng(seed)
 
     def hit(self, o, w, tmin, tmax=None, skip=None):
@@ -114,6 +141,16 @@ class Tracer:
             t, _ = self.hit(p, w, 1e-7, dist * (1 - 1e-7))
             seen = np.isinf(t) & (cos_p > 0)
             out += np.where(seen[:, None], rho / np.pi * intensity * (cos_p / dist ** 2)[:, None], 0.0)
+        for c, u, v, direction, radiance, size in zip(self.area_centre, self.area_u, self.area_v,
+                                                      self.area_direction, self.area_radiance, self.area_size):
+            a, b = 2 * self.rng.random(len(p)) - 1, 2 * self.rng.random(len(p)) - 1
+            d = c + a[:, None] * u + b[:, None] * v - p
+            dist = np.linalg.norm(d, axis=1)
+            w = d / dist[:, None]
+            cos_p, cos_y = (n * w).sum(1), -(w @ direction)
+            t, _ = self.hit(p, w, 1e-7, dist * (1 - 1e-7))
+            seen = np.isinf(t) & (cos_p > 0) & (cos_y > 0)
+            out += np.where(seen[:, None], rho / np.pi * radiance * (cos_p * cos_y / dist ** 2 * size)[:, None], 0.0)
         if not len(self.lights):
             return out
         k = self.lights[self.rng.choice(len(self.lights), len(p), p=self.light_p)]
@@ -128,6 +165,20 @@ class Tracer:
         return out + np.where(seen[:, None], rho / np.pi * self.emission[k] * (cos_p * cos_y / dist ** 2)[:, None]
                               * self.light_area, 0.0)
 
+    def met(self, o, w, t):
+        """Light that rays o + s w, s < t, meet on area lamps facing them and emitting faces they
+        end on (t, the hits' triangles): what a path brings back after a mirror, where no lamp can
+        be sampled."""
+        out = np.zeros((len(o), 3))
+        for c, u, v, direction, radiance in zip(self.area_centre, self.area_u, self.area_v, self.area_direction,
+                                                self.area_radiance):
+            facing = (w @ direction) < 0
+            s = ((c - o) @ direction) / np.where(facing, w @ direction, -1.0)
+            q = o + s[:, None] * w - c
+            inside = ((np.abs(q @ u) <= u @ u) & (np.abs(q @ v) <= v @ v))
+            out += np.where((facing & (s > 0) & (s < t) & inside)[:, None], radiance, 0.0)
+        return out
+
     def radiance(self, x, n, paths, batch=20000):
         """Mean and standard error (RGB) of the radiance leaving point x (normal n) of a non-emitting face."""
         own = (np.abs(((x - self.v0) * self.normal).sum(1)) < 1e-6) & ((self.normal @ n) > 0.999)
@@ -139,15 +190,27 @@ class Tracer:
             weight = np.tile(rho0, (count, 1))
             out = self.direct(p, nn, weight)
             alive = np.arange(count)
+            specular = np.zeros(count, bool)      # the path's last bounce was off a mirror
+            w = np.zeros((count, 3))
             for bounce in range(64):
-                w = cosine_about(nn[alive], self.rng)
-                t, k = self.hit(p[alive], w, 1e-9 if bounce == 0 else 1e-7, skip=own if bounce == 0 else None)
+                diffuse = alive[~specular[alive]]
+                w[diffuse] = cosine_about(nn[diffuse], self.rng)
+                t, k = self.hit(p[alive], w[alive], 1e-9 if bounce == 0 else 1e-7, skip=own if bounce == 0 else None)
+                after_mirror = specular[alive]
+                out[alive[after_mirror]] += weight[alive[after_mirror]] * (
+                    self.met(p[alive[after_mirror]], w[alive[after_mirror]], t[after_mirror])
+                    + np.where(np.isfinite(t[after_mirror])[:, None], self.emission[k[after_mirror]], 0.0))
                 found = np.isfinite(t)
-                alive, w, t, k = alive[found], w[found], t[found], k[found]
-                q = p[alive] + t[:, None] * w
-                facing = self.normal[k] * np.where((self.normal[k] * w).sum(1) < 0, 1.0, -1.0)[:, None]
-                out[alive] += weight[alive] * self.direct(q, facing, self.rho[k])
-                weight[alive] *= self.rho[k]
+                alive, t, k = alive[found], t[found], k[found]
+                q = p[alive] + t[:, None] * w[alive]
+                facing = self.normal[k] * np.where((self.normal[k] * w[alive]).sum(1) < 0, 1.0, -1.0)[:, None]
+                mirror = self.is_mirror[k]
+                specular[alive] = mirror
+                lit = alive[~mirror]
+                out[lit] += weight[lit] * self.direct(q[~mirror], facing[~mirror], self.rho[k[~mirror]])
+                weight[alive] *= np.where(mirror[:, None], self.mirror[k], self.rho[k])
+                reflected = w[alive] - 2 * (w[alive] * facing).sum(1)[:, None] * facing
+                w[alive[mirror]] = reflected[mirror]
                 p[alive], nn[alive] = q, facing
                 alive = alive[weight[alive].max(1) > 1e-6]
                 if not len(alive):
@@ -157,12 +220,23 @@ class Tracer:
         return values.mean(0), values.std(0) / np.sqrt(len(values))
 
 
+def optics(scene):
+    """Whether `scene` is an optics sample, whose references optics_references.py makes."""
+    return scene in optics_references.OPTIC
+
+
+def cycles_path(scene, frame):
+    """The scene's Cycles corners: make_references' file, or optics_references' for the optics samples."""
+    return optics_references.path_of(scene) if optics(scene) else reference.path_of(scene, frame)
+
+
 def save(scene, frame, name, values, errors, inset, paths):
-    """Adds one object's traced corners to the scene's _traced.npz (a lock: objects run side by side)."""
-    path = reference.traced_path_of(scene, frame)
+    """Adds one object's traced corners to the scene's _traced.npz beside its Cycles corners (a lock:
+    objects run side by side)."""
+    path = optics_references.traced_path_of(scene) if optics(scene) else reference.traced_path_of(scene, frame)
     with open(path + ".lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        data = reference.load_traced(scene, frame) or {}
+        data = reference.read_npz(path) if os.path.exists(path) else {}
         data.update({name + ":corner_traced": values.astype(np.float32),
                      name + ":corner_traced_error": errors.astype(np.float32),
                      "traced_inset": np.float64(inset), "traced_paths": np.int64(paths)})
@@ -181,12 +255,17 @@ def main():
     if frame is not None:
         bpy.context.scene.frame_set(frame)
     sx = load_package().export.export_scene()
-    tracer = Tracer(*triangles(sx), point_lamps(sx))
+    tracer = Tracer(*triangles(sx), lamps(sx))
     ob = bpy.data.objects[name]
     co, normals, faces = make_references.world_faces(ob)
-    everything = argv[2] == "all"
-    loops = np.nonzero(~make_references.emitting_corners(ob))[0] if everything else [int(argv[2])]
-    cycles = reference.corner_reference(reference.load(scene, frame), name).mean(1)
+    everything = argv[2] in ("all", "junctions")
+    wanted = ~make_references.emitting_corners(ob)
+    if argv[2] == "junctions":
+        scene_faces = [f for o in bpy.context.scene.objects if o.type == 'MESH' and not o.hide_render
+                       for f in make_references.world_faces(o)[2]]
+        wanted &= reference.junction_faces(co, normals, scene_faces).any(1)
+    loops = np.nonzero(wanted)[0] if everything else [int(argv[2])]
+    cycles = reference.corner_reference(reference.read_npz(cycles_path(scene, frame)), name).mean(1)
     values, errors = np.full((len(co), 3), np.nan), np.full((len(co), 3), np.nan)
     face_ends = np.cumsum([len(f) for f in faces])
     for loop in loops:
@@ -200,4 +279,5 @@ def main():
         save(scene, frame, name, values, errors, inset, paths)
 
 
-main()
+if __name__ == "__main__":
+    main()
