@@ -5,8 +5,8 @@ Cycles' corner values and ours where they disagree.
         [--up H] [--inset F] [--paths N] [--frame F]
 
 The scene is what the add-on exports at that frame (its meshes' cages, materials and emission, its
-point lamps of radius 0 and rectangular area lamps, in the engine's units; the world is not traced:
-the scenes traced have none). A smooth mirror (a specular colour at roughness 0.05 or less over no
+point lamps of radius 0, rectangular area lamps and suns, and its world as one uniform colour, in
+the engine's units). Panes pass light on straight (Tracer). A smooth mirror (a specular colour at roughness 0.05 or less over no
 diffuse part, as mirror_room's Glossy BSDF) reflects along the mirrored direction, times its colour,
 on both sides; light reaches a point by way of it only along such a path (a path leaving the mirror
 collects the lamps and emitters it meets), and lamps do not block rays (Cycles' lamps are not
@@ -58,7 +58,18 @@ MIRROR_ROUGHNESS = 0.05      # the engine's: a specular lobe this smooth is a mi
 def triangles(sx):
     """(T,3,3) world triangles of the visible meshes, and their (T,3) diffuse reflectance, emission
     and mirror colour (0 where the face is no mirror)."""
-    tris, rho, emission, mirror = [], [], [], []
+    tris, rho, emission, mirror, _ = faces_of(sx)
+    return tris, rho, emission, mirror
+
+
+def panes(sx):
+    """The triangles' (T,3) straight-through colour (Transparent BSDF), (T,3) glass colour and (T,)
+    index of refraction, as triangles() lists them."""
+    return faces_of(sx)[4]
+
+
+def faces_of(sx):
+    tris, rho, emission, mirror, passing = [], [], [], [], []
     for m in sx.visible_meshes:
         world = m.positions @ m.transform[:3, :3].T + m.transform[:3, 3]
         starts = np.concatenate(([0], np.cumsum(m.face_sizes)[:-1]))
@@ -69,21 +80,28 @@ def triangles(sx):
             smooth = specular.max() > 0 and material.roughness <= MIRROR_ROUGHNESS
             if smooth and np.max(material.reflectance) > 0:
                 raise SystemExit(f"trace_corner traces pure mirrors only ({m.name}: a diffuse part too)")
+            straight, glass = np.asarray(material.transmittance, float), np.asarray(material.glass, float)
+            if straight.max() + glass.max() > 0 and (np.max(material.reflectance) > 0 or min(straight.max(),
+                                                                                            glass.max()) > 0):
+                raise SystemExit(f"trace_corner traces panes of one lobe only ({m.name})")
             for j in range(1, size - 1):
                 tris.append(world[[ring[0], ring[j], ring[j + 1]]])
                 rho.append(material.reflectance)
                 emission.append(material.emission)
                 mirror.append(specular if smooth else np.zeros(3))
-    return np.array(tris), np.array(rho, float), np.array(emission, float), np.array(mirror, float)
+                passing.append((straight, glass, material.ior))
+    straight, glass, ior = (np.array([f[i] for f in passing], float) for i in range(3))
+    return (np.array(tris), np.array(rho, float), np.array(emission, float), np.array(mirror, float),
+            (straight.reshape(-1, 3), glass.reshape(-1, 3), ior))
 
 
 def lamps(sx):
     """The scene's lamps: point lamps of radius 0 as ((L,3) positions, (L,3) intensities, W/sr), and
     rectangular area lamps as ((A,3) centres, (A,3) half axes u and v, (A,3) unit directions the light
     travels, (A,3) radiances)."""
-    visible = [l for l in sx.lights if l.visible]
+    visible = [l for l in sx.lights if l.visible and l.kind != "sun"]
     if any(not (l.kind == "point" and l.radius == 0 or l.kind == "area" and l.shape == "rect") for l in visible):
-        raise SystemExit("trace_corner traces point lamps of radius 0 and rectangular area lamps only")
+        raise SystemExit("trace_corner traces point lamps of radius 0, rectangular area lamps and suns only")
     points = [l for l in visible if l.kind == "point"]
     areas = [l for l in visible if l.kind == "area"]
 
@@ -94,8 +112,31 @@ def lamps(sx):
              rows(areas, "direction"), rows(areas, "radiance")))
 
 
+def suns(sx):
+    """The scene's suns: (S,3) directions their light travels, (S,) angular diameters, (S,3)
+    irradiances."""
+    suns = [l for l in sx.lights if l.visible and l.kind == "sun"]
+    return (np.array([l.direction for l in suns], float).reshape(-1, 3), np.array([l.angle for l in suns], float),
+            np.array([l.irradiance for l in suns], float).reshape(-1, 3))
+
+
+def fresnel(cos_i, n):
+    """Unpolarised Fresnel reflectance of a dielectric of index n, light arriving at cosine cos_i."""
+    cos_i = np.clip(np.abs(cos_i), 0.0, 1.0)
+    cos_t = np.sqrt(np.maximum(0.0, 1 - (1 - cos_i ** 2) / n ** 2))
+    rs = ((cos_i - n * cos_t) / (cos_i + n * cos_t)) ** 2
+    rp = ((n * cos_i - cos_t) / (n * cos_i + cos_t)) ** 2
+    return 0.5 * (rs + rp)
+
+
 class Tracer:
-    def __init__(self, tris, rho, emission, mirror, lamps, seed=7):
+    """Panes (panes(): a Transparent BSDF's colour, or glass) let light through straight: a
+    transparent one times its colour, glass times its colour and (1 - F) at each face (a slab's
+    faces are parallel: the light leaves as it came, a few millimetres aside), and glass reflects F
+    of it as a mirror of its colour. Shadow rays pass them so. The world (uniform, `world`) lights
+    what paths escape to; suns (suns()) are sampled over their discs."""
+
+    def __init__(self, tris, rho, emission, mirror, lamps, seed=7, panes=None, suns=None, world=None):
         self.v0, self.e1, self.e2 = tris[:, 0], tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]
         n = np.cross(self.e1, self.e2)
         area = 0.5 * np.linalg.norm(n, axis=1)
@@ -108,7 +149,38 @@ class Tracer:
         (self.lamp_position, self.lamp_intensity), (self.area_centre, self.area_u, self.area_v,
                                                       self.area_direction, self.area_radiance) = lamps
         self.area_size = 4 * np.linalg.norm(np.cross(self.area_u, self.area_v), axis=1)
+        none = np.zeros((len(tris), 3))
+        self.straight, self.glass, self.ior = panes if panes is not None else (none, none, np.ones(len(tris)))
+        self.is_pane = (self.straight.max(1) > 0) | (self.glass.max(1) > 0)
+        self.sun_direction, self.sun_angle, self.sun_irradiance = (
+            suns if suns is not None else (np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3))))
+        self.world = np.zeros(3) if world is None else np.asarray(world, float)
         self.rng = np.random.default_rng(seed)
+
+    def passing(self, k, w):
+        """(N,3) what pane triangles k pass of rays along w, at their angle."""
+        cos_i = (self.normal[k] * w).sum(1)
+        return self.straight[k] + self.glass[k] * (1 - fresnel(cos_i, self.ior[k]))[:, None]
+
+    def through(self, o, w, tmax):
+        """(N,3) what reaches o + tmax w from o along w (tmax may be inf): 0 past an opaque face,
+        else the product of what the panes on the way pass."""
+        factor = np.ones((len(o), 3))
+        o, tmax = o.copy(), np.asarray(tmax, float).copy()
+        active = np.arange(len(o))
+        for _ in range(16):
+            t, k = self.hit(o[active], w[active], 1e-7, tmax[active])
+            met = np.isfinite(t)
+            active, t, k = active[met], t[met], k[met]
+            pane = self.is_pane[k]
+            factor[active[~pane]] = 0.0
+            active, t, k = active[pane], t[pane], k[pane]
+            if not len(active):
+                break
+            factor[active] *= self.passing(k, w[active])
+            o[active] += t[:, None] * w[active]
+            tmax[active] -= t
+        return factor
 
     def hit(self, o, w, tmin, tmax=None, skip=None):
         """Nearest hit (t, triangle) of rays o + t w, t in (tmin, tmax); Moller-Trumbore, all at once."""
@@ -138,9 +210,8 @@ class Tracer:
             dist = np.linalg.norm(d, axis=1)
             w = d / dist[:, None]
             cos_p = (n * w).sum(1)
-            t, _ = self.hit(p, w, 1e-7, dist * (1 - 1e-7))
-            seen = np.isinf(t) & (cos_p > 0)
-            out += np.where(seen[:, None], rho / np.pi * intensity * (cos_p / dist ** 2)[:, None], 0.0)
+            seen = self.through(p, w, dist * (1 - 1e-7)) * (cos_p > 0)[:, None]
+            out += seen * rho / np.pi * intensity * (cos_p / dist ** 2)[:, None]
         for c, u, v, direction, radiance, size in zip(self.area_centre, self.area_u, self.area_v,
                                                       self.area_direction, self.area_radiance, self.area_size):
             a, b = 2 * self.rng.random(len(p)) - 1, 2 * self.rng.random(len(p)) - 1
@@ -148,9 +219,22 @@ class Tracer:
             dist = np.linalg.norm(d, axis=1)
             w = d / dist[:, None]
             cos_p, cos_y = (n * w).sum(1), -(w @ direction)
-            t, _ = self.hit(p, w, 1e-7, dist * (1 - 1e-7))
-            seen = np.isinf(t) & (cos_p > 0) & (cos_y > 0)
-            out += np.where(seen[:, None], rho / np.pi * radiance * (cos_p * cos_y / dist ** 2 * size)[:, None], 0.0)
+            seen = self.through(p, w, dist * (1 - 1e-7)) * ((cos_p > 0) & (cos_y > 0))[:, None]
+            out += seen * rho / np.pi * radiance * (cos_p * cos_y / dist ** 2 * size)[:, None]
+        for direction, angle, irradiance in zip(self.sun_direction, self.sun_angle, self.sun_irradiance):
+            # uniform over the sun's disc of directions
+            cos_max = np.cos(0.5 * angle)
+            cos_t = 1 - self.rng.random(len(p)) * (1 - cos_max)
+            phi = 2 * np.pi * self.rng.random(len(p))
+            axis = -np.asarray(direction, float) / np.linalg.norm(direction)
+            a = np.cross(axis, (1.0, 0.0, 0.0) if abs(axis[0]) < 0.9 else (0.0, 1.0, 0.0))
+            a /= np.linalg.norm(a)
+            b = np.cross(axis, a)
+            sin_t = np.sqrt(np.maximum(0.0, 1 - cos_t ** 2))
+            w = (cos_t[:, None] * axis + (sin_t * np.cos(phi))[:, None] * a + (sin_t * np.sin(phi))[:, None] * b)
+            cos_p = (n * w).sum(1)
+            seen = self.through(p, w, np.full(len(p), np.inf)) * (cos_p > 0)[:, None]
+            out += seen * rho / np.pi * irradiance * cos_p[:, None]
         if not len(self.lights):
             return out
         k = self.lights[self.rng.choice(len(self.lights), len(p), p=self.light_p)]
@@ -160,10 +244,8 @@ class Tracer:
         dist = np.linalg.norm(d, axis=1)
         w = d / dist[:, None]
         cos_p, cos_y = (n * w).sum(1), np.abs((self.normal[k] * w).sum(1))
-        t, _ = self.hit(p, w, 1e-7, dist * (1 - 1e-7))
-        seen = np.isinf(t) & (cos_p > 0)
-        return out + np.where(seen[:, None], rho / np.pi * self.emission[k] * (cos_p * cos_y / dist ** 2)[:, None]
-                              * self.light_area, 0.0)
+        seen = self.through(p, w, dist * (1 - 1e-7)) * (cos_p > 0)[:, None]
+        return out + seen * rho / np.pi * self.emission[k] * (cos_p * cos_y / dist ** 2)[:, None] * self.light_area
 
     def met(self, o, w, t):
         """Light that rays o + s w, s < t, meet on area lamps facing them and emitting faces they
@@ -190,10 +272,11 @@ class Tracer:
             weight = np.tile(rho0, (count, 1))
             out = self.direct(p, nn, weight)
             alive = np.arange(count)
-            specular = np.zeros(count, bool)      # the path's last bounce was off a mirror
+            specular = np.zeros(count, bool)      # the path's last bounce was off a mirror (or glass)
+            straight = np.zeros(count, bool)      # it went on through a pane: its direction stays
             w = np.zeros((count, 3))
             for bounce in range(64):
-                diffuse = alive[~specular[alive]]
+                diffuse = alive[~specular[alive] & ~straight[alive]]
                 w[diffuse] = cosine_about(nn[diffuse], self.rng)
                 t, k = self.hit(p[alive], w[alive], 1e-9 if bounce == 0 else 1e-7, skip=own if bounce == 0 else None)
                 after_mirror = specular[alive]
@@ -201,16 +284,27 @@ class Tracer:
                     self.met(p[alive[after_mirror]], w[alive[after_mirror]], t[after_mirror])
                     + np.where(np.isfinite(t[after_mirror])[:, None], self.emission[k[after_mirror]], 0.0))
                 found = np.isfinite(t)
+                out[alive[~found]] += weight[alive[~found]] * self.world  # the world is not sampled directly
                 alive, t, k = alive[found], t[found], k[found]
                 q = p[alive] + t[:, None] * w[alive]
                 facing = self.normal[k] * np.where((self.normal[k] * w[alive]).sum(1) < 0, 1.0, -1.0)[:, None]
-                mirror = self.is_mirror[k]
-                specular[alive] = mirror
-                lit = alive[~mirror]
-                out[lit] += weight[lit] * self.direct(q[~mirror], facing[~mirror], self.rho[k[~mirror]])
-                weight[alive] *= np.where(mirror[:, None], self.mirror[k], self.rho[k])
+                # A pane passes the path on or, glass, reflects it (F of the time): as a mirror, then.
+                pane = self.is_pane[k]
+                reflects = pane & (self.rng.random(len(k)) < self.glass[k].max(1) / np.maximum(
+                    self.glass[k].max(1), 1e-30) * fresnel((self.normal[k] * w[alive]).sum(1), self.ior[k]))
+                passes = pane & ~reflects
+                mirror = self.is_mirror[k] | reflects
+                lit = alive[~mirror & ~pane]
+                out[lit] += weight[lit] * self.direct(q[~mirror & ~pane], facing[~mirror & ~pane],
+                                                      self.rho[k[~mirror & ~pane]])
+                factor = np.where(mirror[:, None], np.where(reflects[:, None], self.glass[k], self.mirror[k]),
+                                  self.rho[k])
+                factor[passes] = self.straight[k[passes]] + self.glass[k[passes]]
+                weight[alive] *= factor
                 reflected = w[alive] - 2 * (w[alive] * facing).sum(1)[:, None] * facing
                 w[alive[mirror]] = reflected[mirror]
+                specular[alive[~passes]] = mirror[~passes]
+                straight[alive] = passes
                 p[alive], nn[alive] = q, facing
                 alive = alive[weight[alive].max(1) > 1e-6]
                 if not len(alive):
@@ -255,7 +349,7 @@ def main():
     if frame is not None:
         bpy.context.scene.frame_set(frame)
     sx = load_package().export.export_scene()
-    tracer = Tracer(*triangles(sx), lamps(sx))
+    tracer = Tracer(*triangles(sx), lamps(sx), panes=panes(sx), suns=suns(sx), world=sx.world)
     ob = bpy.data.objects[name]
     co, normals, faces = make_references.world_faces(ob)
     everything = argv[2] in ("all", "junctions")
