@@ -1,6 +1,7 @@
 #include "gather.h"
 
 #include "dispatch.h"
+#include "place_offset.h"
 
 #include <algorithm>
 #include <cmath>
@@ -54,6 +55,7 @@ struct NearLight {
   uint8_t corners[2];
   uint8_t other;  // the corners the cell's centre sees on its other side
   const Shot& shot;  // how far to split
+  const PlaceOffset* end;  // where a ray to a whole piece ends in it (Shot::ends_by_place); null: its centre
 };
 
 // A piece of a cell: the cell itself or a quarter of a piece, with its square in the patch's (u, v).
@@ -62,6 +64,18 @@ struct Piece {
   const Cell& cell;
   double u0, v0, size;
 };
+
+// Where a ray to the square of side `size` at (u0, v0) of its patch ends in it, in the patch's (u, v):
+// at the place's offset, turned along the golden ratio by the square's column for its height and by
+// its row for its width (a Kronecker lattice shifted by the offset). Over the places each end still
+// falls anywhere in its square with equal chance; at one place the squares along a row or a column,
+// which a window's frame cuts across alike, put their ends at heights spread over their squares
+// rather than at one, so they see the cut in proportion to its place across them.
+PlaceOffset end_in_square(const PlaceOffset& offset, double u0, double v0, double size) {
+  constexpr double kGolden = 0.6180339887498949;  // (sqrt(5) - 1) / 2
+  double a = offset.u + kGolden * std::round(v0 / size), b = offset.v + kGolden * std::round(u0 / size);
+  return {u0 + size * (a - std::floor(a)), v0 + size * (b - std::floor(b))};
+}
 
 // Centroid in (u, v) of the part of the piece on side `part` (0: h > 0) of the receiver's plane,
 // h being the corners' heights above it (linear across a planar piece).
@@ -147,7 +161,13 @@ RADIOSITY_HOT void exact_piece(const RayStart& from, const Piece& p, const NearL
     }
     return;
   }
-  send(f.front > 0 ? 0 : 1, p.u0 + 0.5 * p.size, p.v0 + 0.5 * p.size, p.cell.centre);
+  int part = f.front > 0 ? 0 : 1;
+  if (!light.end) {
+    send(part, p.u0 + 0.5 * p.size, p.v0 + 0.5 * p.size, p.cell.centre);
+    return;
+  }
+  PlaceOffset at = end_in_square(*light.end, p.u0, p.v0, p.size);
+  send(part, at.u, at.v, bilinear(light.patch.corner, at.u, at.v));
 }
 
 // Starts the exact integration of a cell. Where the receiver's surface stands on the cell's patch
@@ -157,12 +177,13 @@ RADIOSITY_HOT void exact_piece(const RayStart& from, const Piece& p, const NearL
 // next room's light onto the strip between box and wall). Where the centre sees corners on both
 // sides, something else divides the patch (a wall between two rooms) and the centre's view holds
 // for the whole cell.
-inline void exact_cell(const RayStart& from, const Shot& shot, const ShotCell& sc, int side, OcclusionBatch& batch) {
+inline void exact_cell(const RayStart& from, const Shot& shot, const ShotCell& sc, int side, const PlaceOffset* end,
+                       OcclusionBatch& batch) {
   const dvec3& x = from.x;
   const dvec3& n = from.n;
   const ShotPatch& patch = shot.patches[sc.patch];
   uint8_t seen = sc.seen[side];
-  NearLight light{patch, side, {seen, seen}, sc.seen[1 - side], shot};
+  NearLight light{patch, side, {seen, seen}, sc.seen[1 - side], shot, end};
   if (seen != 15) {
     double tolerance = 1e-9 * sc.cell.radius;
     double h[4];
@@ -244,6 +265,9 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
       shut = shot.enclosed_side;
   }
   if (shot.reflected) batch.set_share(point.reflected_share);
+  // Where rays end in cells (Shot::ends_by_place): drawn for this place, or the centres.
+  const PlaceOffset placed = shot.ends_by_place ? place_offset(x) : PlaceOffset{};
+  const PlaceOffset* end = shot.ends_by_place ? &placed : nullptr;
   // The subtree of a frontier element, one element at a time.
   auto walk = [&](int from) __attribute__((always_inline)) {
     stack[top++] = from;
@@ -264,14 +288,16 @@ RADIOSITY_HOT void gather(const Shot& shot, int receiver, const ReceiverPoint& p
           const ShotPatch& patch = shot.patches[sc.patch];
           if (zone && !zone->may_cross(x, {cell.centre, cell.radius})) continue;
           if (std::optional<double> factor = distant_cell_form_factor(cell, x, n)) {
+            PlaceOffset at = end ? end_in_square(placed, sc.u0, sc.v0, sc.size)
+                                 : PlaceOffset{sc.u0 + 0.5 * sc.size, sc.v0 + 0.5 * sc.size};
             far_sample(start, cell.centre,
-                       {cell.centre, cell.normal, bilinear_lift(patch.twist, sc.u0 + 0.5 * sc.size, sc.v0 + 0.5 * sc.size),
-                        patch.under_patch},
+                       {end ? bilinear(patch.corner, at.u, at.v) : cell.centre, cell.normal,
+                        bilinear_lift(patch.twist, at.u, at.v), patch.under_patch},
                        [&]() __attribute__((always_inline)) { return *factor; }, sc.radiance, shut, batch);
             continue;
           }
           int side = glm::dot(cell.normal, x - cell.centre) >= 0 ? 0 : 1;
-          if (side != shut) exact_cell(start, shot, sc, side, batch);
+          if (side != shut) exact_cell(start, shot, sc, side, end, batch);
         }
         continue;
       }

@@ -1,8 +1,9 @@
 #include "lights.h"
 
+#include "place_offset.h"
+
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <cstdint>
 
 namespace radiosity {
@@ -11,41 +12,10 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// A fixed offset of the sample pattern within its cells per receiving place, two numbers in [0, 1):
-// a solve stays deterministic, and over the receivers each sample falls anywhere in its cell with
-// equal chance, so what they gather is right on average. A pattern fixed in its cells (only turned
-// about the centre) puts every receiver's samples at the same few distances from the centre: for
-// the sky the same few elevations, which weigh a window by the rings of samples it meets rather than
-// by its size (a floor under a window reads its sky high), and shadows band where they should be
-// noise. Drawn from the place's coordinates, not the receiver's index: a place gathers the same
-// samples whatever the objects around it, or their order, so one face of two meshes alike (an
-// object and its modifiers applied) gets the same light.
-struct Offset {
-  double u, v;
-};
-
-Offset place_offset(const dvec3& x) {
-  auto mix = [](uint32_t h) {
-    h ^= h >> 16;
-    h *= 0x45d9f3bu;
-    h ^= h >> 16;
-    return h;
-  };
-  uint32_t h = 0x2545f491u;  // not 0: the origin's bits would give no offset at all
-  for (int k = 0; k < 3; ++k) {
-    float c = float(x[k]);
-    uint32_t bits;
-    std::memcpy(&bits, &c, sizeof bits);
-    h = mix(h * 2654435761u ^ bits);
-  }
-  uint32_t g = mix(h * 0x9e3779b9u + 0x7f4a7c15u);
-  return {(h & 0xFFFFFF) / double(0x1000000), (g & 0xFFFFFF) / double(0x1000000)};
-}
-
 // Stratified points on the unit disc: Shirley's concentric map of a k x k grid, one point a cell at
 // `offset` within it. The map keeps area, so the cells are equal parts of the disc.
 template <class F>
-void disc_samples(int samples, Offset offset, F&& use) {
+void disc_samples(int samples, PlaceOffset offset, F&& use) {
   int k = std::max(1, int(std::ceil(std::sqrt(double(samples)))));
   for (int j = 0; j < k; ++j)
     for (int i = 0; i < k; ++i) {
@@ -186,6 +156,7 @@ Shot area_lamp_shot(const Lamp& lamp, int samples) {
   e.cell_end = int(shot.cells.size());
   shot.elements.push_back(e);
   set_frontier(shot, {0});
+  shot.ends_by_place = true;  // a lamp is often seen through a window
   return shot;
 }
 

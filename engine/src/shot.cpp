@@ -303,13 +303,15 @@ Shot scaled(Shot shot, double scale) {
 std::optional<Shot> difference(const Shot& after, const Shot& before) {
   const Shot &a = before, &b = after;
   if (a.elements.size() != b.elements.size() || a.patches.size() != b.patches.size() ||
-      a.cells.size() != b.cells.size() || a.frontier != b.frontier || a.reflected != b.reflected)
+      a.cells.size() != b.cells.size() || a.frontier != b.frontier || a.reflected != b.reflected ||
+      a.ends_by_place != b.ends_by_place)
     return std::nullopt;
   Shot d;
   d.frontier = b.frontier;
   d.split_radii = b.split_radii;
   d.split_depth = b.split_depth;
   d.reflected = b.reflected;
+  d.ends_by_place = b.ends_by_place;
   // The patches as after, then as before, negative. Their own views cancel: the radiance is the same.
   int count = int(b.patches.size());
   d.patches = b.patches;

@@ -111,6 +111,12 @@ struct Shot {
   // of near_direct.cpp does.
   double split_radii = 2.0;
   int split_depth = 3;
+  // Where the ray to a cell (or to a piece of a near cell that the receiver's plane does not cut)
+  // ends: at its centre, or, with ends_by_place, at the point of it that place_offset draws for the
+  // receiving place. Through a window the fraction of a source a receiver sees then comes out right
+  // on average over the receivers round it, rather than banded by which of the few fixed centres
+  // pass the window's frame; the form factor stays the cell's own.
+  bool ends_by_place = false;
   // Light that surfaces reflected (not emitted): a receiver takes its reflected_share of what
   // comes from beyond the patches it lies on.
   bool reflected = false;
