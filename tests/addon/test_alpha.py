@@ -221,52 +221,20 @@ def test_a_bake_puts_the_image_s_shadow_under_a_leaf_card(addon, empty_scene):
     np.testing.assert_allclose(colours[clean], want, rtol=1e-3, atol=1e-4)
 
 
-def test_a_new_image_on_the_card_is_a_material_change_the_solver_follows(addon, empty_scene):
-    """Live update: the card's image painted over goes as Solver.set_material with the new image;
-    the updated solver agrees with a fresh solve of the new scene (the floor under the card)."""
-    export, engine = addon.export, addon.engine.load_engine()
-    material = card_material("mix", alpha_image(checkers()))
-    card(material)
+def sunlit_card(material, scene):
+    """A card of `material` over a floor ("Grid") under a sun: the card."""
+    leaf = card(material)
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=9, y_subdivisions=9, size=4.0)
     sun = bpy.data.lights.new("Sun", 'SUN')
     sun.energy = SUN
-    empty_scene.collection.objects.link(bpy.data.objects.new("Sun", sun))
-    before = export.export_scene()
-    material.node_tree.nodes["Image Texture"].image = alpha_image(1 - checkers(), "Painted")
-    after = export.export_scene()
-    calls = addon.scene_diff.diff_exports(before, after, engine)
-    assert [name for name, _ in calls] == ["set_material"]
-    scene, ids = export.to_engine(before, engine)
-    solver = engine.Solver(scene, engine.Settings.preset("draft"))
-    solver.solve()
-    addon.scene_diff.apply_calls(solver, calls)
-    solver.update()
-    solver.solve()
-    fresh = engine.Solver(export.to_engine(after, engine)[0], engine.Settings.preset("draft"))
-    fresh.solve()
-    got, want = solver.refined(ids["Grid"])[1], fresh.refined(ids["Grid"])[1]
-    assert want.max() > 0.1
-    np.testing.assert_allclose(got, want, atol=1e-3 * want.max())
+    scene.collection.objects.link(bpy.data.objects.new("Sun", sun))
+    return leaf
 
 
-def test_new_uvs_on_the_card_reach_the_solver(addon, empty_scene):
-    """Live update: the card's UVs moved a square along u turn its clear squares opaque and back;
-    the engine takes UVs with the mesh, so the card goes anew, and the updated solver agrees with a
-    fresh solve of the new scene (the floor under the card)."""
+def floor_before_updated_and_fresh(addon, before, after, calls):
+    """The floor's light in a solve of `before`, once that solver has taken `calls` and settled, and in
+    a fresh solve of `after`."""
     export, engine = addon.export, addon.engine.load_engine()
-    leaf = card(card_material("mix", alpha_image(checkers())))
-    bpy.ops.mesh.primitive_grid_add(x_subdivisions=9, y_subdivisions=9, size=4.0)
-    sun = bpy.data.lights.new("Sun", 'SUN')
-    sun.energy = SUN
-    empty_scene.collection.objects.link(bpy.data.objects.new("Sun", sun))
-    before = export.export_scene()
-    uv = np.empty(len(leaf.data.loops) * 2, np.float32)
-    leaf.data.uv_layers.active.data.foreach_get("uv", uv)
-    leaf.data.uv_layers.active.data.foreach_set("uv", uv + np.tile(np.float32([0.25, 0.0]), len(uv) // 2))
-    leaf.data.update()
-    after = addon.scene_diff.align_export(before, export.export_scene())
-    calls = addon.scene_diff.diff_exports(before, after, engine)
-    assert calls
     scene, ids = export.to_engine(before, engine)
     solver = engine.Solver(scene, engine.Settings.preset("draft"))
     solver.solve()
@@ -276,7 +244,40 @@ def test_new_uvs_on_the_card_reach_the_solver(addon, empty_scene):
     solver.solve()
     fresh = engine.Solver(export.to_engine(after, engine)[0], engine.Settings.preset("draft"))
     fresh.solve()
-    got, want = solver.refined(ids["Grid"])[1], fresh.refined(ids["Grid"])[1]
+    return was, solver.refined(ids["Grid"])[1], fresh.refined(ids["Grid"])[1]
+
+
+def test_a_new_image_on_the_card_is_a_material_change_the_solver_follows(addon, empty_scene):
+    """Live update: the card's image painted over goes as Solver.set_material with the new image;
+    the updated solver agrees with a fresh solve of the new scene (the floor under the card)."""
+    export, engine = addon.export, addon.engine.load_engine()
+    material = card_material("mix", alpha_image(checkers()))
+    sunlit_card(material, empty_scene)
+    before = export.export_scene()
+    material.node_tree.nodes["Image Texture"].image = alpha_image(1 - checkers(), "Painted")
+    after = export.export_scene()
+    calls = addon.scene_diff.diff_exports(before, after, engine)
+    assert [name for name, _ in calls] == ["set_material"]
+    _, got, want = floor_before_updated_and_fresh(addon, before, after, calls)
+    assert want.max() > 0.1
+    np.testing.assert_allclose(got, want, atol=1e-3 * want.max())
+
+
+def test_new_uvs_on_the_card_reach_the_solver(addon, empty_scene):
+    """Live update: the card's UVs moved a square along u turn its clear squares opaque and back;
+    the engine takes UVs with the mesh, so the card goes anew, and the updated solver agrees with a
+    fresh solve of the new scene (the floor under the card)."""
+    export, engine = addon.export, addon.engine.load_engine()
+    leaf = sunlit_card(card_material("mix", alpha_image(checkers())), empty_scene)
+    before = export.export_scene()
+    uv = np.empty(len(leaf.data.loops) * 2, np.float32)
+    leaf.data.uv_layers.active.data.foreach_get("uv", uv)
+    leaf.data.uv_layers.active.data.foreach_set("uv", uv + np.tile(np.float32([0.25, 0.0]), len(uv) // 2))
+    leaf.data.update()
+    after = addon.scene_diff.align_export(before, export.export_scene())
+    calls = addon.scene_diff.diff_exports(before, after, engine)
+    assert calls
+    was, got, want = floor_before_updated_and_fresh(addon, before, after, calls)
     assert want.max() > 0.1 and np.abs(want - was).max() > 0.1 * want.max()
     np.testing.assert_allclose(got, want, atol=1e-3 * want.max())
 
