@@ -409,18 +409,13 @@ bool Solver::Impl::shoot(int s, std::vector<double>& power, double omega, double
       }
   }
   patch_power.resize(mesh.patches.size());
-  // Its images, sampled as it is: a fresh solve then sends by way of a mirror what an update of
-  // that mirror takes back and sends again.
-  std::vector<Source> images;
-  if (!mirrors.empty()) {
-    images.push_back(shot_source(sent, s, {n.centroid, n.radius}));
-    add_images(images);
-    images.erase(images.begin());
-  }
+  // The shot and its images, sampled as it is: a fresh solve then sends by way of a mirror what an
+  // update of that mirror takes back and sends again.
+  std::vector<Source> sources{shot_source(std::move(sent), s, {n.centroid, n.radius})};
+  add_images(sources);
   if (!gather_all([](int) { return true; }, [this] { return delta_batch(); },
                   [&](int i, const ReceiverPoint& p, OcclusionBatch& batch) {
-                    gather(sent, i, p, batch);
-                    for (const Source& image : images) image.gather(i, p, batch);
+                    for (const Source& source : sources) source.gather(i, p, batch);
                   },
                   true, [&] { absorb_delta(s, omega, Light::reflected); }))
     return false;
