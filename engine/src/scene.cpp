@@ -78,17 +78,16 @@ void validate_mesh(const MeshDesc& m, size_t index, size_t material_count) {
     fail(who + ": Catmull-Clark level must be in 0..10");
   if (!(m.patch_size >= 0) || !std::isfinite(m.patch_size))
     fail(who + ": patch size must be a finite non-negative number");
-  if (!m.corner_reflectance.empty() && m.corner_reflectance.size() != corners)
-    fail(who + ": " + std::to_string(corners) + " face corners but " +
-         std::to_string(m.corner_reflectance.size()) + " corner reflectances");
+  // A per-corner array is empty or has one entry a face corner.
+  auto per_corner = [&](size_t size, const char* what) {
+    if (size != 0 && size != corners)
+      fail(who + ": " + std::to_string(corners) + " face corners but " + std::to_string(size) + " " + what);
+  };
+  per_corner(m.corner_reflectance.size(), "corner reflectances");
   for (size_t k = 0; k < m.corner_reflectance.size(); ++k)
     check_reflectance(m.corner_reflectance[k], who + ", face corner " + std::to_string(k));
-  if (!m.corner_emission.empty() && m.corner_emission.size() != corners)
-    fail(who + ": " + std::to_string(corners) + " face corners but " + std::to_string(m.corner_emission.size()) +
-         " corner emissions");
-  if (!m.corner_uv.empty() && m.corner_uv.size() != corners)
-    fail(who + ": " + std::to_string(corners) + " face corners but " + std::to_string(m.corner_uv.size()) +
-         " corner UVs");
+  per_corner(m.corner_emission.size(), "corner emissions");
+  per_corner(m.corner_uv.size(), "corner UVs");
   for (size_t k = 0; k < m.corner_uv.size(); ++k)
     if (!std::isfinite(m.corner_uv[k].x) || !std::isfinite(m.corner_uv[k].y))
       fail(who + ", face corner " + std::to_string(k) + ": NaN or infinite UV");
